@@ -1,0 +1,33 @@
+"""Pure-numpy physics of tendon transmission through cable guides.
+
+Every function here is vectorised over arbitrary leading axes (time, sets,
+tendons) and knows nothing about recordings, files or torch.  Units are SI:
+tensions in N, angles in rad, speeds in m/s, times in s.
+
+Equation numbers refer to the PG-CHTC paper (``shared/seed/pg-chtc-paper.txt``).
+"""
+
+from friction_models.bending_stiffness import bending_loss
+from friction_models.capstan import capstan_exponent, capstan_ratio
+from friction_models.contact_gate import hard_contact_gate, smooth_contact_gate
+from friction_models.guide_wear import guide_wear_factors
+from friction_models.mu_laws import affine_cosine_mu, constant_mu, velocity_dependent_mu
+from friction_models.play_operator import PlayResult, play_operator, play_operator_edges, slip_state
+from friction_models.viscoelastic import viscoelastic_lag
+
+__all__ = [
+    "PlayResult",
+    "affine_cosine_mu",
+    "bending_loss",
+    "capstan_exponent",
+    "capstan_ratio",
+    "constant_mu",
+    "guide_wear_factors",
+    "hard_contact_gate",
+    "play_operator",
+    "play_operator_edges",
+    "slip_state",
+    "smooth_contact_gate",
+    "velocity_dependent_mu",
+    "viscoelastic_lag",
+]

@@ -1,0 +1,5 @@
+import sys
+
+from tendon_id.cli import main
+
+sys.exit(main())

@@ -1,0 +1,267 @@
+"""Robot geometry: tendon routing, wrap angles and the contact gate (DESIGN §4).
+
+Conventions
+-----------
+* ``theta`` has shape ``(T, N, 2)``: ``theta[:, k-1] = (theta_k_x, theta_k_y)`` [rad],
+  the bend of joint ``k`` towards the disk's +x and +y directions.
+* Guide ``k`` (``k = 1..N-1``) is the bore of link ``k``, between joint ``k`` and
+  joint ``k + 1``.  The tendons of set ``j`` pass guides ``1..j-1``.
+* Tendon ``i`` of set ``j`` runs at azimuth ``psi[j-1, i-1]`` on every disk.
+
+The paper's ``Geom(q_k)`` (Eq. (3)) is :func:`backbone_wrap`: one wrap per guide,
+shared by every tendon.  :func:`projected_wrap` is the per-tendon small-angle
+form of DESIGN §4, and :func:`exact_wrap` the forward kinematics of the hole
+points, which the simulator's ``per_tendon_wrap`` effect uses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from friction_models import hard_contact_gate, smooth_contact_gate
+from tendon_id.errors import ConfigError
+
+__all__ = [
+    "RobotGeometry",
+    "backbone_wrap",
+    "contact_gate",
+    "exact_wrap",
+    "joint_rotation",
+    "projected_bend",
+    "projected_wrap",
+    "tendon_azimuths",
+]
+
+
+@dataclass(frozen=True)
+class RobotGeometry:
+    """Description of a discrete-joint CDHRR with serial pass-through routing.
+
+    The defaults describe a 12-module robot of the SJTU-Snake III's class (paper
+    Section IV-A); the paper gives no dimensions, so the lengths are typical of
+    such robots and only enter :func:`exact_wrap`.
+
+    Parameters
+    ----------
+    n_modules : int
+        Number of modules / joints ``N`` (each with 3 tendons). Default 12.
+    link_length : float
+        Distance between a link's two hole planes [m]. Default 0.060.
+    joint_gap : float
+        Distance between the hole planes on either side of a joint [m]; the
+        joint's pivot sits half-way. Default 0.010.
+    hole_radius : float
+        Radius of the circle of tendon holes on each disk [m]. Default 0.012.
+    alpha_0 : float
+        Routing wrap present even when the robot is straight [rad]
+        (DESIGN §4). Default 0.05.
+    alpha_c : float
+        Clearance angle of a hole: below it the tendon does not touch the
+        wall [rad]. Default 0.03.
+    azimuth_step : float
+        Azimuth offset ``delta`` between consecutive tendon sets [rad]. The
+        default ``2 pi / 36`` spreads the 36 holes of 12 sets evenly.
+    """
+
+    n_modules: int = 12
+    link_length: float = 0.060
+    joint_gap: float = 0.010
+    hole_radius: float = 0.012
+    alpha_0: float = 0.05
+    alpha_c: float = 0.03
+    azimuth_step: float = 2.0 * np.pi / 36.0
+
+    def __post_init__(self) -> None:
+        if int(self.n_modules) != self.n_modules or self.n_modules < 2:
+            raise ConfigError(f"robot.n_modules must be an integer >= 2, got {self.n_modules!r}")
+        for name in ("link_length", "joint_gap", "hole_radius"):
+            if not float(getattr(self, name)) > 0:
+                raise ConfigError(f"robot.{name} must be a positive length in m, got {getattr(self, name)!r}")
+        for name in ("alpha_0", "alpha_c"):
+            v = float(getattr(self, name))
+            if not 0.0 <= v < np.pi / 2:
+                raise ConfigError(f"robot.{name} must be an angle in [0, pi/2) rad, got {v!r}")
+
+    @property
+    def n_guides(self) -> int:
+        """Number of guides, ``N - 1``."""
+        return self.n_modules - 1
+
+    def to_dict(self) -> dict:
+        """Plain-JSON form, as stored in recording metadata."""
+        return {k: float(v) if isinstance(v, float) else v for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, d: dict | None) -> RobotGeometry:
+        """Build from :meth:`to_dict` output; unknown keys are an error."""
+        d = dict(d or {})
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ConfigError(f"unknown robot setting(s) {unknown}; known: {sorted(known)}")
+        return cls(**d)
+
+
+def tendon_azimuths(geometry: RobotGeometry) -> NDArray[np.float64]:
+    """Hole azimuths ``psi[j-1, i-1] = 2 pi (i-1)/3 + (j-1) delta`` [rad], shape (N, 3)."""
+    j = np.arange(geometry.n_modules)[:, None]
+    i = np.arange(3)[None, :]
+    return 2.0 * np.pi * i / 3.0 + j * geometry.azimuth_step
+
+
+def projected_bend(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
+    """Bend of each joint projected on a tendon azimuth: ``b = theta_x cos psi + theta_y sin psi``.
+
+    Parameters
+    ----------
+    theta : array_like, shape (..., N, 2)
+        Joint angles [rad].
+    psi : array_like, shape (S, 3)
+        Azimuths [rad] of S tendon sets.
+
+    Returns
+    -------
+    ndarray, shape (..., N, S, 3)
+        Projected bend [rad]; also ``-1/r`` times the tendon's length change per
+        joint for holes at radius ``r`` (small angles).
+    """
+    theta = np.asarray(theta, dtype=float)
+    psi = np.asarray(psi, dtype=float)
+    return theta[..., :, None, None, 0] * np.cos(psi) + theta[..., :, None, None, 1] * np.sin(psi)
+
+
+def backbone_wrap(theta: ArrayLike, alpha_0: float) -> NDArray[np.float64]:
+    """Backbone-level wrap per guide, the paper's ``alpha_k = Geom(q_k)`` (Eq. (3)).
+
+    ``alpha_k = |theta_k| / 2 + |theta_{k+1}| / 2 + alpha_0``: at each joint it
+    crosses, the tendon turns by half the joint's bend (DESIGN §4).
+
+    Parameters
+    ----------
+    theta : array_like, shape (..., N, 2)
+        Joint angles [rad].
+    alpha_0 : float
+        Routing wrap [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., N-1)
+        Wrap of guides ``1..N-1`` [rad], in ``[alpha_0, pi]``.
+    """
+    mag = np.linalg.norm(np.asarray(theta, dtype=float), axis=-1)
+    return np.minimum(0.5 * mag[..., :-1] + 0.5 * mag[..., 1:] + alpha_0, np.pi)
+
+
+def projected_wrap(theta: ArrayLike, psi: ArrayLike, alpha_0: float) -> NDArray[np.float64]:
+    """Per-tendon wrap from projected bends (DESIGN §4, small-angle form).
+
+    ``alpha_k = |b_k(psi)| / 2 + |b_{k+1}(psi)| / 2 + alpha_0``.
+
+    Returns
+    -------
+    ndarray, shape (..., N-1, S, 3)
+        Wrap [rad] of guide ``k`` for tendon ``i`` of set ``j``.
+    """
+    b = np.abs(projected_bend(theta, psi))
+    return np.minimum(0.5 * b[..., :-1, :, :] + 0.5 * b[..., 1:, :, :] + alpha_0, np.pi)
+
+
+def joint_rotation(theta: ArrayLike) -> NDArray[np.float64]:
+    """Rotation of a Cardan (universal) joint, upper link relative to lower link.
+
+    ``R = R_y(theta_x) R_x(-theta_y)``: the first cross axis bends towards +x,
+    the second towards +y.  A Cardan joint twists the upper link slightly when
+    both axes move, which is what makes the exact wraps differ per tendon.
+
+    Parameters
+    ----------
+    theta : array_like, shape (..., 2)
+        ``(theta_x, theta_y)`` [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
+    theta = np.asarray(theta, dtype=float)
+    a, b = theta[..., 0], theta[..., 1]
+    ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
+    # R_y(a) @ R_x(-b), multiplied out.
+    R = np.empty(theta.shape[:-1] + (3, 3))
+    R[..., 0, 0] = ca
+    R[..., 0, 1] = -sa * sb
+    R[..., 0, 2] = sa * cb
+    R[..., 1, 0] = 0.0
+    R[..., 1, 1] = cb
+    R[..., 1, 2] = sb
+    R[..., 2, 0] = -sa
+    R[..., 2, 1] = -ca * sb
+    R[..., 2, 2] = ca * cb
+    return R
+
+
+def exact_wrap(theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None = None) -> NDArray[np.float64]:
+    """Per-tendon wrap from the forward kinematics of the hole points.
+
+    Across joint ``k`` the tendon runs straight from its hole in the top disk
+    of link ``k-1`` to its hole in the bottom disk of link ``k``; inside a link it
+    runs along the link's axis.  The turn at a hole is the angle between the
+    consecutive segments, and guide ``k`` collects the turns at both ends of
+    link ``k`` (from joints ``k`` and ``k+1``), plus the routing wrap ``alpha_0``.
+    For a bend in one plane this reduces to :func:`backbone_wrap`; the Cardan
+    twist of :func:`joint_rotation` spreads the turns unevenly over tendons.
+
+    Parameters
+    ----------
+    theta : array_like, shape (T, N, 2)
+        Joint angles [rad].
+    geometry : RobotGeometry
+        Hole radius and joint gap.
+    psi : array_like, shape (S, 3), optional
+        Azimuths; default :func:`tendon_azimuths`.
+
+    Returns
+    -------
+    ndarray, shape (T, N-1, S, 3)
+        Wrap [rad].
+    """
+    theta = np.asarray(theta, dtype=float)
+    psi = tendon_azimuths(geometry) if psi is None else np.asarray(psi, dtype=float)
+    rho, h = geometry.hole_radius, 0.5 * geometry.joint_gap
+    R = joint_rotation(theta)[:, :, None, None]  # (T, N, 1, 1, 3, 3), broadcast over (S, 3) tendons
+    ux, uy = rho * np.cos(psi), rho * np.sin(psi)  # hole offsets in the disk plane, (S, 3)
+    # Segment across each joint in the lower link's frame: R @ (u + h e_z) - (u - h e_z),
+    # written out per component (an einsum over a trailing xyz axis is several times slower).
+    sx = R[..., 0, 0] * ux + R[..., 0, 1] * uy + R[..., 0, 2] * h - ux
+    sy = R[..., 1, 0] * ux + R[..., 1, 1] * uy + R[..., 1, 2] * h - uy
+    sz = R[..., 2, 0] * ux + R[..., 2, 1] * uy + R[..., 2, 2] * h + h
+    # Turn at the lower link's top hole: angle to e_z.
+    turn_out_of_lower = np.arctan2(np.hypot(sx, sy), sz)
+    # Turn at the upper link's bottom hole: angle to the upper axis R e_z (a unit vector).
+    dot = sx * R[..., 0, 2] + sy * R[..., 1, 2] + sz * R[..., 2, 2]
+    perp = np.sqrt(np.maximum(sx * sx + sy * sy + sz * sz - dot * dot, 0.0))
+    turn_into_upper = np.arctan2(perp, dot)
+    # Guide k = link k: its bottom hole turns at joint k, its top hole at joint k+1.
+    wrap = turn_into_upper[:, :-1] + turn_out_of_lower[:, 1:] + geometry.alpha_0
+    return np.minimum(wrap, np.pi)
+
+
+def contact_gate(alpha: ArrayLike, geometry: RobotGeometry, *, smooth: bool = False, width: float = 0.01) -> NDArray:
+    """Contact gate ``beta_k`` for the hole clearance of ``geometry`` (DESIGN §4).
+
+    Parameters
+    ----------
+    alpha : array_like
+        Wrap [rad].
+    geometry : RobotGeometry
+        Supplies the clearance angle ``alpha_c``.
+    smooth : bool
+        Use the differentiable sigmoid gate instead of the indicator.
+    width : float
+        Sigmoid width [rad] when ``smooth``.
+    """
+    if smooth:
+        return smooth_contact_gate(alpha, geometry.alpha_c, width)
+    return hard_contact_gate(alpha, geometry.alpha_c)

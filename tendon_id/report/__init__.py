@@ -1,0 +1,1 @@
+"""Human-readable reports: terminal text and self-contained HTML pages."""

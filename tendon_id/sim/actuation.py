@@ -1,0 +1,59 @@
+"""Actuator-side tensions set by the low-level puller–follower controller."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.errors import ConfigError
+from tendon_id.geometry import RobotGeometry, tendon_azimuths
+from tendon_id.sim.motion import smooth_noise
+
+
+@dataclass(frozen=True)
+class Actuation:
+    """Tension model of the low-level controller that keeps every tendon taut (DESIGN §5).
+
+    ``T[1, j, i](t) = P (1 + v s_ji(t)) + g [b_j(psi_ji, t)]_+``: a per-trajectory
+    pretension level ``P`` (from the protocol's ``pretension_n`` range), a slow
+    relative variation ``s`` of RMS ``v``, and the puller's antagonistic share
+    ``g`` times the commanded bend of joint ``j`` projected on the tendon's
+    azimuth (tendons on the outside of the bend are followers and keep ``P``).
+    The paper's taut regime (§III-D: minimum 62 N, 5th percentile 77 N) is
+    respected by the pretension ranges of the recipes.
+
+    Parameters
+    ----------
+    gain_n_per_rad : float
+        Antagonistic gain ``g`` [N/rad]. Default 600.
+    variation : float
+        RMS of the slow relative variation ``v`` [-]. Default 0.04.
+    variation_period_s : tuple of float
+        Range of periods of the slow variation [s]. Default (20, 90).
+    """
+
+    gain_n_per_rad: float = 600.0
+    variation: float = 0.04
+    variation_period_s: tuple[float, float] = (20.0, 90.0)
+
+    def __post_init__(self) -> None:
+        if self.gain_n_per_rad < 0 or not 0 <= self.variation < 0.25:
+            raise ConfigError("actuation needs gain_n_per_rad >= 0 and 0 <= variation < 0.25")
+        object.__setattr__(self, "variation_period_s", tuple(float(p) for p in self.variation_period_s))
+
+    def tensions(self, rng: np.random.Generator, theta: NDArray, pretension: float, geometry: RobotGeometry, dt: float) -> NDArray:
+        """Actuator-side tensions [N] of one trajectory, shape (T, N, 3).
+
+        Parameters
+        ----------
+        theta : ndarray, shape (T, N, 2)
+            Commanded joint angles [rad].
+        pretension : float
+            This trajectory's pretension level ``P`` [N].
+        """
+        psi = tendon_azimuths(geometry)  # (N, 3)
+        own_bend = theta[:, :, 0, None] * np.cos(psi) + theta[:, :, 1, None] * np.sin(psi)  # b_j(psi_ji)
+        slow = smooth_noise(rng, theta.shape[0], psi.shape, self.variation_period_s, dt)
+        return pretension * (1.0 + self.variation * slow) + self.gain_n_per_rad * np.maximum(own_bend, 0.0)

@@ -1,0 +1,263 @@
+"""The switchable unmodelled effects of the simulator (DESIGN §5) and their parameters.
+
+Each effect is a frozen dataclass of documented parameters, validated on
+construction.  :class:`Effects` holds which effects are on and their settings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, field, fields
+from types import MappingProxyType
+
+from tendon_id.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Contact:
+    """``contact``: the hole's clearance gate ``beta = 1[alpha > alpha_c]`` (paper Eq. (6)).
+
+    The clearance angle is a property of the robot (``RobotGeometry.alpha_c``).
+    """
+
+
+@dataclass(frozen=True)
+class StickSlip:
+    """``stick_slip``: the nonsmooth capstan play operator (paper §III-B, ref. [12])."""
+
+
+@dataclass(frozen=True)
+class Viscoelastic:
+    """``viscoelastic``: a Zener lag on the tension leaving each guide.
+
+    Parameters
+    ----------
+    tau_v : float
+        Relaxation time constant [s]. Default 1.5.
+    kappa : float
+        Relaxing fraction per guide, in [0, 1]. Default 0.04, so a tendon that
+        crosses 11 guides relaxes ``1 - 0.96**11 = 36 %`` of a tension step.
+    """
+
+    tau_v: float = 1.5
+    kappa: float = 0.04
+
+    def __post_init__(self) -> None:
+        if not self.tau_v > 0:
+            raise ConfigError(f"viscoelastic.tau_v must be a positive time in s, got {self.tau_v}")
+        if not 0 <= self.kappa <= 1:
+            raise ConfigError(f"viscoelastic.kappa must lie in [0, 1], got {self.kappa}")
+
+
+@dataclass(frozen=True)
+class VelocityFriction:
+    """``velocity_friction``: mu grows with the tendon's sliding speed.
+
+    Parameters
+    ----------
+    v_ref : float
+        Sliding speed that doubles mu [m/s]. Default 0.005.
+    stribeck_drop : float
+        Fractional Stribeck dip from static to kinetic friction. Default 0.
+    v_stribeck : float
+        Stribeck speed [m/s]. Default 0.002.
+    """
+
+    v_ref: float = 0.005
+    stribeck_drop: float = 0.0
+    v_stribeck: float = 0.002
+
+    def __post_init__(self) -> None:
+        if not (self.v_ref > 0 and self.v_stribeck > 0):
+            raise ConfigError("velocity_friction.v_ref and v_stribeck must be positive speeds in m/s")
+        if not 0 <= self.stribeck_drop < 1:
+            raise ConfigError("velocity_friction.stribeck_drop must lie in [0, 1)")
+
+
+@dataclass(frozen=True)
+class BendingStiffness:
+    """``bending_stiffness``: a tension-independent loss ``dT_b * alpha`` per guide.
+
+    Parameters
+    ----------
+    dT_b : float
+        Loss per radian of wrap [N/rad]. Default 4.0.
+    """
+
+    dT_b: float = 4.0
+
+    def __post_init__(self) -> None:
+        if not self.dT_b >= 0:
+            raise ConfigError(f"bending_stiffness.dT_b must be >= 0 N/rad, got {self.dT_b}")
+
+
+@dataclass(frozen=True)
+class GuideWear:
+    """``guide_wear``: friction multipliers at chosen guides.
+
+    Parameters
+    ----------
+    guides : mapping of int to float
+        1-based guide index to its multiplier on the capstan exponent.
+        Default ``{4: 1.8, 8: 1.5}``.
+    """
+
+    guides: Mapping[int, float] = field(default_factory=lambda: {4: 1.8, 8: 1.5})
+
+    def __post_init__(self) -> None:
+        clean = {}
+        for k, v in dict(self.guides).items():
+            try:
+                kk, vv = int(k), float(v)
+            except (TypeError, ValueError):
+                raise ConfigError(f"guide_wear.guides must map guide numbers to factors, got {k!r}: {v!r}") from None
+            if kk < 1 or vv <= 0:
+                raise ConfigError(f"guide_wear: guide {k} needs an index >= 1 and a factor > 0, got {v}")
+            clean[kk] = vv
+        object.__setattr__(self, "guides", MappingProxyType(dict(sorted(clean.items()))))
+
+
+@dataclass(frozen=True)
+class PerTendonWrap:
+    """``per_tendon_wrap``: each tendon's own wrap instead of the backbone angle.
+
+    Parameters
+    ----------
+    model : {"exact", "projected"}
+        ``"exact"``: forward kinematics of the hole points
+        (:func:`tendon_id.geometry.exact_wrap`); ``"projected"``: the
+        small-angle projected-bend form (:func:`tendon_id.geometry.projected_wrap`).
+    """
+
+    model: str = "exact"
+
+    def __post_init__(self) -> None:
+        if self.model not in ("exact", "projected"):
+            raise ConfigError(f"per_tendon_wrap.model must be 'exact' or 'projected', got {self.model!r}")
+
+
+@dataclass(frozen=True)
+class SensorBias:
+    """``sensor_bias``: offset, gain error and drift of the terminal load cells.
+
+    ``T_meas = (1 + gain) T + offset + drift * t_clock``, where ``t_clock`` runs
+    over the whole session (trajectories are recorded back to back).
+
+    Parameters
+    ----------
+    offset : float
+        Zero offset [N]. Default 3.0.
+    gain : float
+        Relative gain error [-]. Default 0.03.
+    drift : float
+        Zero drift [N/s]. Default 0.002 (7 N per hour).
+    """
+
+    offset: float = 3.0
+    gain: float = 0.03
+    drift: float = 0.002
+
+    def __post_init__(self) -> None:
+        if not self.gain > -1:
+            raise ConfigError("sensor_bias.gain must be > -1")
+
+
+EFFECT_TYPES: Mapping[str, type] = MappingProxyType(
+    {
+        "contact": Contact,
+        "stick_slip": StickSlip,
+        "viscoelastic": Viscoelastic,
+        "velocity_friction": VelocityFriction,
+        "bending_stiffness": BendingStiffness,
+        "guide_wear": GuideWear,
+        "per_tendon_wrap": PerTendonWrap,
+        "sensor_bias": SensorBias,
+    }
+)
+EFFECT_NAMES: tuple[str, ...] = tuple(EFFECT_TYPES)
+
+
+def parse_effect_names(spec: str | Iterable[str] | None) -> tuple[str, ...]:
+    """Parse ``"a,b"``, ``"none"`` or a list of names into validated effect names.
+
+    Raises
+    ------
+    ConfigError
+        On an unknown name, listing the known ones.
+    """
+    if spec is None:
+        return ()
+    if isinstance(spec, str):
+        parts = [p.strip() for p in spec.split(",") if p.strip()]
+        if parts == ["none"]:
+            return ()
+        if parts == ["all"]:
+            return EFFECT_NAMES
+    else:
+        parts = [str(p) for p in spec]
+    out = []
+    for p in parts:
+        if p not in EFFECT_TYPES:
+            raise ConfigError(f"unknown effect {p!r}; known effects: {', '.join(EFFECT_NAMES)} (or 'none')")
+        if p not in out:
+            out.append(p)
+    return tuple(n for n in EFFECT_NAMES if n in out)  # canonical order
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Which unmodelled effects are on, and their parameters.
+
+    Parameters
+    ----------
+    enabled : iterable of str
+        Effect names from :data:`EFFECT_NAMES`.
+    params : mapping of str to mapping, optional
+        Per-effect parameter overrides, e.g. ``{"viscoelastic": {"tau_v": 2.0}}``.
+        Settings for effects that are off are kept, so a recipe can switch an
+        effect on without restating them.
+    """
+
+    enabled: tuple[str, ...] = ()
+    params: Mapping[str, object] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        enabled = parse_effect_names(list(self.enabled))
+        built = {}
+        for name, cls in EFFECT_TYPES.items():
+            raw = dict(self.params.get(name, {}) or {}) if isinstance(self.params, Mapping) else {}
+            value = self.params.get(name) if isinstance(self.params, Mapping) else None
+            if isinstance(value, cls):
+                built[name] = value
+                continue
+            known = {f.name for f in fields(cls)}
+            unknown = sorted(set(raw) - known)
+            if unknown:
+                raise ConfigError(f"unknown setting(s) {unknown} for effect {name!r}; known: {sorted(known) or 'none'}")
+            built[name] = cls(**raw)
+        for name in self.params if isinstance(self.params, Mapping) else ():
+            if name not in EFFECT_TYPES:
+                raise ConfigError(f"settings given for unknown effect {name!r}; known: {', '.join(EFFECT_NAMES)}")
+        object.__setattr__(self, "enabled", enabled)
+        object.__setattr__(self, "params", MappingProxyType(built))
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.enabled
+
+    def get(self, name: str):
+        """Parameters of effect ``name`` (whether or not it is on)."""
+        return self.params[name]
+
+    def with_enabled(self, names: Iterable[str]) -> Effects:
+        """A copy with a different set of effects on and the same settings."""
+        return Effects(enabled=tuple(names), params=dict(self.params))
+
+    def to_dict(self) -> dict:
+        """Plain-JSON form: ``{"enabled": [...], "params": {name: {...}}}`` for the enabled ones."""
+        params = {}
+        for name in self.enabled:
+            d = asdict(self.params[name]) if fields(self.params[name]) else {}
+            if name == "guide_wear":
+                d = {"guides": {str(k): v for k, v in self.params[name].guides.items()}}
+            params[name] = d
+        return {"enabled": list(self.enabled), "params": params}

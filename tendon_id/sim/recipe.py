@@ -1,0 +1,163 @@
+"""Dataset recipes: a robot, its friction, its effects, its sensors and its protocols (one TOML file each)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+
+from tendon_id.errors import ConfigError
+from tendon_id.geometry import RobotGeometry
+from tendon_id.sim.actuation import Actuation
+from tendon_id.sim.effects import Effects
+from tendon_id.sim.protocols import PAPER_FRAMES, PROTOCOL_NAMES, ProtocolSettings
+from tendon_id.sim.sensors import Sensors
+from tendon_id.sim.transmission import FrictionLaw
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+
+def _build(cls, section: str, d: Mapping | None):
+    d = dict(d or {})
+    known = {f.name for f in fields(cls)}
+    unknown = sorted(set(d) - known)
+    if unknown:
+        raise ConfigError(f"unknown setting(s) {unknown} in [{section}]; known: {sorted(known)}")
+    try:
+        return cls(**d)
+    except TypeError as exc:  # wrong value types from TOML
+        raise ConfigError(f"[{section}]: {exc}") from None
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """Everything the simulator needs to make one dataset (DESIGN §5).
+
+    Attributes
+    ----------
+    name : str
+    description : str
+    seed : int
+        Default seed; a ``simulate`` call may override it.
+    sample_rate_hz : float
+        Logging rate [Hz] (paper: 10 Hz).
+    v_max_deg_s : float
+        Peak joint speed of every move [deg/s] (paper: below 9 deg/s in 99 % of frames).
+    robot : RobotGeometry
+    friction : FrictionLaw
+        The truth friction law.
+    effects : Effects
+        Unmodelled effects on by default, with settings.
+    actuation : Actuation
+    sensors : Sensors
+    protocols : mapping of str to ProtocolSettings
+    """
+
+    name: str
+    description: str = ""
+    seed: int = 0
+    sample_rate_hz: float = 10.0
+    v_max_deg_s: float = 8.0
+    robot: RobotGeometry = field(default_factory=RobotGeometry)
+    friction: FrictionLaw = field(default_factory=FrictionLaw)
+    effects: Effects = field(default_factory=Effects)
+    actuation: Actuation = field(default_factory=Actuation)
+    sensors: Sensors = field(default_factory=Sensors)
+    protocols: Mapping[str, ProtocolSettings] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.sample_rate_hz > 0:
+            raise ConfigError("sample_rate_hz must be positive")
+        if not 0 < self.v_max_deg_s <= 9.0:
+            raise ConfigError("v_max_deg_s must lie in (0, 9] deg/s: the paper's data is quasi-static")
+
+    @property
+    def dt(self) -> float:
+        """Sample period [s]."""
+        return 1.0 / self.sample_rate_hz
+
+    def protocol(self, name: str) -> ProtocolSettings:
+        """Settings of protocol ``name`` (the paper's frame count when the recipe is silent)."""
+        if name not in PROTOCOL_NAMES:
+            raise ConfigError(f"unknown protocol {name!r}; known: {', '.join(PROTOCOL_NAMES)}")
+        if name in self.protocols:
+            return self.protocols[name]
+        return ProtocolSettings(frames=PAPER_FRAMES[name])
+
+    def robot_for(self, protocol: str) -> RobotGeometry:
+        """The robot a protocol runs on: the single-passage rig has 2 modules and one guide."""
+        return replace(self.robot, n_modules=2) if protocol == "single-passage" else self.robot
+
+    def to_dict(self) -> dict:
+        """Plain-JSON form (also what the dataset cache key hashes)."""
+        return {
+            "name": self.name,
+            "description": self.description,
+            "seed": self.seed,
+            "sample_rate_hz": self.sample_rate_hz,
+            "v_max_deg_s": self.v_max_deg_s,
+            "robot": self.robot.to_dict(),
+            "friction": {"A": list(self.friction.A), "B": list(self.friction.B)},
+            "effects": self.effects.to_dict(),
+            "actuation": asdict(self.actuation),
+            "sensors": asdict(self.sensors),
+            "protocols": {k: asdict(v) for k, v in self.protocols.items()},
+        }
+
+    def fingerprint(self) -> str:
+        """Short hash of the recipe's content."""
+        return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()[:16]
+
+    @classmethod
+    def from_dict(cls, d: Mapping, *, source: str = "<recipe>") -> Recipe:
+        """Build a recipe from the TOML layout (see ``datasets/*.toml``)."""
+        d = dict(d)
+        known = {"name", "description", "seed", "sample_rate_hz", "v_max_deg_s", "robot", "friction", "effects", "actuation", "sensors", "protocols", "card"}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ConfigError(f"{source}: unknown section(s) {unknown}; known: {sorted(known)}")
+        if "name" not in d:
+            raise ConfigError(f"{source}: a recipe needs a name")
+        try:
+            eff = dict(d.get("effects", {}))
+            enabled = eff.pop("enabled", [])
+            effects = Effects(enabled=tuple(enabled), params=eff)
+            protocols = {}
+            for pname, pset in dict(d.get("protocols", {})).items():
+                if pname not in PROTOCOL_NAMES:
+                    raise ConfigError(f"unknown protocol {pname!r}; known: {', '.join(PROTOCOL_NAMES)}")
+                protocols[pname] = ProtocolSettings.from_dict(pname, dict(pset))
+            return cls(
+                name=str(d["name"]),
+                description=str(d.get("description", "")),
+                seed=int(d.get("seed", 0)),
+                sample_rate_hz=float(d.get("sample_rate_hz", 10.0)),
+                v_max_deg_s=float(d.get("v_max_deg_s", 8.0)),
+                robot=RobotGeometry.from_dict(d.get("robot")),
+                friction=_build(FrictionLaw, "friction", d.get("friction")),
+                effects=effects,
+                actuation=_build(Actuation, "actuation", d.get("actuation")),
+                sensors=_build(Sensors, "sensors", d.get("sensors")),
+                protocols=protocols,
+            )
+        except ConfigError as exc:
+            raise ConfigError(f"{source}: {exc}") from None
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Recipe:
+        """Read a recipe file."""
+        path = Path(path)
+        try:
+            with path.open("rb") as fh:
+                data = tomllib.load(fh)
+        except FileNotFoundError:
+            raise ConfigError(f"{path}: no such recipe file") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+        return cls.from_dict(data, source=str(path))

@@ -1,0 +1,169 @@
+"""Simulate a protocol of a recipe into a :class:`~tendon_id.data.Recording` (DESIGN §5)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.data import Recording
+from tendon_id.progress import progress_bar
+from tendon_id.sim.effects import Effects, parse_effect_names
+from tendon_id.sim.protocols import PROTOCOL_NAMES, PROTOCOLS, MotionContext, held_joint_count, held_pose
+from tendon_id.sim.recipe import Recipe
+from tendon_id.sim.sensors import apply_sensor_bias
+from tendon_id.sim.transmission import TransmissionResult, transmit
+
+#: Frames transmitted per vectorised block; whole trajectories are never split.
+BLOCK_FRAMES = 8192
+
+_STREAM_MOTION, _STREAM_TENSION, _STREAM_NOISE, _STREAM_POSES = range(4)
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """A simulated recording and the hidden state behind it.
+
+    Attributes
+    ----------
+    recording : Recording
+        What a robot would log, plus intermediate joint-side truth columns.
+    chain : ndarray, shape (T, N, N, 3)
+        Noise-free ``T[k, j, i]`` [N] (NaN where ``k > j``).
+    sigma : ndarray of int8, shape (T, N-1, N, 3)
+        Slip state per guide, set and tendon (+1 forward slip, 0 stick, -1 reverse slip).
+    theta_true : ndarray, shape (T, N, 2)
+        Joint angles before encoder quantisation [rad].
+    wrap : ndarray, shape (T, N-1)
+        Backbone wrap per guide [rad].
+    """
+
+    recording: Recording
+    chain: NDArray[np.float64]
+    sigma: NDArray[np.int8]
+    theta_true: NDArray[np.float64]
+    wrap: NDArray[np.float64]
+
+
+def _rng(seed: int, protocol: str, trajectory: int, stream: int) -> np.random.Generator:
+    # One independent stream per (seed, protocol, trajectory, purpose): a trajectory's
+    # data does not depend on how many other trajectories are made.
+    return np.random.default_rng([int(seed), PROTOCOL_NAMES.index(protocol), int(trajectory), stream])
+
+
+def simulate(
+    recipe: Recipe,
+    protocol: str,
+    *,
+    seed: int | None = None,
+    effects: str | list[str] | None = None,
+    frames: int | None = None,
+    progress: bool | None = None,
+) -> SimulationResult:
+    """Simulate one protocol of a recipe.
+
+    Parameters
+    ----------
+    recipe : Recipe
+    protocol : str
+        One of ``terminal-only``, ``posterior-3``, ``posterior-6``,
+        ``planned-paths``, ``single-passage``.
+    seed : int, optional
+        Overrides the recipe's seed. The same seed gives the same bytes.
+    effects : str or list of str, optional
+        Effects to switch on instead of the recipe's (``"none"`` for none);
+        their settings still come from the recipe.
+    frames : int, optional
+        Overrides the protocol's total frame count.
+    progress : bool, optional
+        Show a progress bar (default: only on a terminal).
+
+    Returns
+    -------
+    SimulationResult
+    """
+    settings = recipe.protocol(protocol)
+    if frames is not None:
+        if int(frames) < 2:
+            from tendon_id.errors import ConfigError
+
+            raise ConfigError(f"--frames must be at least 2, got {frames}")
+        settings = type(settings)(**{**settings.__dict__, "frames": int(frames)})
+    seed = recipe.seed if seed is None else int(seed)
+    eff: Effects = recipe.effects if effects is None else recipe.effects.with_enabled(parse_effect_names(effects))
+    geometry = recipe.robot_for(protocol)
+    n, dt = geometry.n_modules, recipe.dt
+    v_max = np.deg2rad(recipe.v_max_deg_s)
+
+    n_traj = int(np.ceil(settings.frames / settings.trajectory_frames))
+    lengths = [settings.trajectory_frames] * n_traj
+    lengths[-1] = settings.frames - settings.trajectory_frames * (n_traj - 1)
+    if lengths[-1] < 2:  # a 1-frame tail trajectory would have no time axis: fold it in
+        lengths[-2] += lengths.pop()
+        n_traj -= 1
+
+    pose_rng = _rng(seed, protocol, 0, _STREAM_POSES)
+    n_held = held_joint_count(protocol, n)
+    poses = [np.zeros((n, 2)) if (protocol == "terminal-only" and p == 0) else held_pose(pose_rng, n, n_held, settings.held_pose_deg) for p in range(settings.n_held_poses)]
+
+    thetas, acts, ids = [], [], []
+    for ti in progress_bar(range(n_traj), desc=f"simulate {protocol}", enable=progress):
+        ctx = MotionContext(n, type(settings)(**{**settings.__dict__, "trajectory_frames": lengths[ti]}), dt, v_max, ti, tuple(poses))
+        theta = PROTOCOLS[protocol](_rng(seed, protocol, ti, _STREAM_MOTION), ctx)
+        trng = _rng(seed, protocol, ti, _STREAM_TENSION)
+        level = trng.uniform(*settings.pretension_n)
+        thetas.append(theta)
+        acts.append(recipe.actuation.tensions(trng, theta, level, geometry, dt))
+        ids.append(f"{protocol}-{ti:04d}")
+
+    theta_true = np.concatenate(thetas)
+    actuator_true = np.concatenate(acts)
+    reset = np.zeros(theta_true.shape[0], dtype=bool)
+    reset[np.cumsum([0] + lengths[:-1])] = True
+
+    # Transmit whole trajectories in blocks, so memory stays bounded on long protocols.
+    blocks: list[TransmissionResult] = []
+    starts = np.flatnonzero(reset)
+    begin = 0
+    while begin < theta_true.shape[0]:
+        end_candidates = starts[starts >= begin + BLOCK_FRAMES]
+        end = int(end_candidates[0]) if end_candidates.size else theta_true.shape[0]
+        sl = slice(begin, end)
+        blocks.append(transmit(theta_true[sl], actuator_true[sl], reset[sl], geometry, recipe.friction, eff, dt))
+        begin = end
+    chain = np.concatenate([b.chain for b in blocks])
+    sigma = np.concatenate([b.sigma for b in blocks])
+    wrap = np.concatenate([b.wrap for b in blocks])
+
+    # Measurement: encoders and load cells.
+    nrng = _rng(seed, protocol, 0, _STREAM_NOISE)
+    angles = recipe.sensors.read_angles(theta_true)
+    actuator = recipe.sensors.read_tensions(nrng, actuator_true)
+    terminal_true = chain[:, n - 1, n - 1, :]
+    t_local = np.concatenate([np.arange(m) * dt for m in lengths])
+    if "sensor_bias" in eff:
+        clock = np.arange(theta_true.shape[0]) * dt  # trajectories recorded back to back
+        terminal_true = apply_sensor_bias(terminal_true, clock, eff.get("sensor_bias"))
+    terminal = recipe.sensors.read_tensions(nrng, terminal_true)
+    joint_truth = chain[:, np.arange(n), np.arange(n), :].copy()
+    joint_truth[:, 0] = actuator[:, 0]  # set 1 has no guide: its load cell reads the joint side
+    joint_truth[:, n - 1] = terminal
+
+    meta = {
+        "n_modules": n,
+        "sample_rate_hz": recipe.sample_rate_hz,
+        "protocol": protocol,
+        "robot": geometry.to_dict(),
+        "recipe": recipe.name,
+        "recipe_fingerprint": recipe.fingerprint(),
+        "effects": list(eff.enabled),
+        "effect_params": eff.to_dict()["params"],
+        "friction_truth": {"A": list(recipe.friction.A), "B": list(recipe.friction.B)},
+        "seed": seed,
+    }
+    trajectory = np.repeat(np.array(ids, dtype=object), lengths)
+    rec = Recording.from_arrays(
+        trajectory=trajectory, t=t_local, angles=angles, actuator=actuator, terminal=terminal, joint_truth=joint_truth, meta=meta
+    )
+    return SimulationResult(recording=rec, chain=chain, sigma=sigma, theta_true=theta_true, wrap=wrap)

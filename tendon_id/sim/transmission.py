@@ -1,0 +1,218 @@
+"""Truth physics of the tendon transmission, one frame block at a time (DESIGN §5).
+
+For every set ``j`` and tendon ``i`` the guides are taken from proximal to
+distal.  Through guide ``k`` the capstan exponent is
+
+    phi = w_k * mu_i(alpha, v) * beta * alpha          (paper Eqs. (4)-(6))
+
+and the log tension either drops by ``phi`` (forward slip) or, with
+``stick_slip``, follows the play operator of the nonsmooth capstan.
+Everything is vectorised over frames, sets and tendons; the only Python loop
+runs over the ``N - 1`` guides, because guide ``k + 1`` is fed by guide ``k``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from friction_models import (
+    affine_cosine_mu,
+    bending_loss,
+    guide_wear_factors,
+    hard_contact_gate,
+    play_operator_edges,
+    velocity_dependent_mu,
+    viscoelastic_lag,
+)
+from tendon_id.geometry import RobotGeometry, backbone_wrap, exact_wrap, projected_wrap, tendon_azimuths
+from tendon_id.sim.effects import Effects
+
+#: Smallest tension [N] a bending-stiffness loss may leave; the taut regime
+#: (paper §III-D) is far above it, so it only keeps logarithms finite.
+SLACK_FLOOR_N = 1e-3
+
+
+@dataclass(frozen=True)
+class FrictionLaw:
+    """Per-tendon affine-cosine law ``mu_i(alpha) = A_i cos(alpha) + B_i`` (paper Eq. (4)).
+
+    Parameters
+    ----------
+    A, B : tuple of 3 floats
+        Defaults are the paper's identified values (Section IV-B):
+        ``(0.30, 0.09), (0.32, 0.08), (0.28, 0.10)``.
+
+    Notes
+    -----
+    The paper's values have ``B < |A|``: their mu turns negative beyond
+    ``alpha = arccos(-B/A)`` (about 105 deg), far outside the wraps a snake's
+    guides reach.  The truth law is therefore only required to be positive
+    on the wraps a simulation actually visits (checked in :func:`transmit`),
+    not on all of ``[0, pi]`` as the calibration constraint ``B >= |A|`` is.
+    """
+
+    A: tuple[float, float, float] = (0.30, 0.32, 0.28)
+    B: tuple[float, float, float] = (0.09, 0.08, 0.10)
+
+    def __post_init__(self) -> None:
+        from tendon_id.errors import ConfigError
+
+        A = tuple(float(a) for a in self.A)
+        B = tuple(float(b) for b in self.B)
+        if len(A) != 3 or len(B) != 3:
+            raise ConfigError("friction.A and friction.B need 3 values each (one per tendon)")
+        for i, (a, b) in enumerate(zip(A, B), start=1):
+            if a + b <= 0:
+                raise ConfigError(f"friction law of tendon {i} needs mu(0) = A + B > 0, got A={a}, B={b}")
+        object.__setattr__(self, "A", A)
+        object.__setattr__(self, "B", B)
+
+    def mu(self, alpha: NDArray) -> NDArray:
+        """``mu_i(alpha)`` with the tendon on the last axis of ``alpha``."""
+        return affine_cosine_mu(alpha, np.array(self.A), np.array(self.B))
+
+
+@dataclass(frozen=True)
+class TransmissionResult:
+    """Noise-free transmission state of a block of frames.
+
+    Attributes
+    ----------
+    chain : ndarray, shape (T, N, N, 3)
+        ``chain[t, k-1, j-1, i-1] = T[k, j, i]`` [N]: tension of tendon ``i`` of set
+        ``j`` just after guide ``k - 1``; NaN where ``k > j`` (not on the path).
+    sigma : ndarray of int8, shape (T, N-1, N, 3)
+        Slip state at guide ``k`` for set ``j`` (+1 forward slip, 0 stick, -1
+        reverse slip); 0 where set ``j`` does not pass guide ``k``.  Without
+        ``stick_slip`` every passing tendon is in forward slip.
+    wrap : ndarray, shape (T, N-1)
+        Backbone wrap per guide [rad].
+    phi : ndarray, shape (T, N-1, N|1, 3)
+        Capstan exponent actually applied.
+    """
+
+    chain: NDArray[np.float64]
+    sigma: NDArray[np.int8]
+    wrap: NDArray[np.float64]
+    phi: NDArray[np.float64]
+
+    @property
+    def joint_side(self) -> NDArray[np.float64]:
+        """``T[j, j, :]`` for every set, shape (T, N, 3) [N]."""
+        n = self.chain.shape[1]
+        return self.chain[:, np.arange(n), np.arange(n), :]
+
+
+def _backward_rate(x: NDArray, reset: NDArray, dt: float) -> NDArray:
+    """Backward-difference time derivative, zero on each trajectory's first frame."""
+    rate = np.zeros_like(x)
+    rate[1:] = (x[1:] - x[:-1]) / dt
+    rate[reset] = 0.0
+    return rate
+
+
+def sliding_speed(theta: NDArray, geometry: RobotGeometry, reset: NDArray, dt: float) -> NDArray:
+    """Speed [m/s] at which tendon ``i`` of set ``j`` slides through guide ``k``.
+
+    The tendon is anchored at joint ``j``, so it slides through guide ``k`` as
+    fast as its path beyond guide ``k`` changes length; across joint ``m`` that
+    length changes by ``-r b_m(psi)`` (small angles, hole radius ``r``).
+
+    Returns
+    -------
+    ndarray, shape (T, N-1, N, 3)
+        Zero where set ``j`` does not pass guide ``k``.
+    """
+    n = geometry.n_modules
+    psi = tendon_azimuths(geometry)  # (N sets, 3)
+    # The projected bend is linear in theta, so sum the joint angles beyond guide k first:
+    # sum_{m=k+1..j} theta_m = C_j - C_k with C the running sum over joints.
+    rate = _backward_rate(np.cumsum(theta, axis=1), reset, dt)  # (T, N, 2)
+    beyond = rate[:, None, :, :] - rate[:, :-1, None, :]  # (T, N-1 guides k, N sets j, 2)
+    length_rate = beyond[..., 0, None] * np.cos(psi) + beyond[..., 1, None] * np.sin(psi)
+    k = np.arange(1, n)[:, None]
+    j = np.arange(1, n + 1)[None, :]
+    return geometry.hole_radius * np.abs(length_rate) * (k < j)[None, :, :, None]
+
+
+def transmit(
+    theta: NDArray,
+    actuator: NDArray,
+    reset: NDArray,
+    geometry: RobotGeometry,
+    friction: FrictionLaw,
+    effects: Effects,
+    dt: float,
+) -> TransmissionResult:
+    """Run the truth transmission over a block of frames.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (T, N, 2)
+        True joint angles [rad].
+    actuator : ndarray, shape (T, N, 3)
+        True actuator-side tensions ``T[1, j, i]`` [N], all positive.
+    reset : ndarray of bool, shape (T,)
+        True on each trajectory's first frame (hysteresis and lag restart).
+    geometry, friction, effects :
+        Robot, friction law and the unmodelled effects that are on.
+    dt : float
+        Sample period [s].
+    """
+    n = geometry.n_modules
+    n_frames = theta.shape[0]
+    wrap = backbone_wrap(theta, geometry.alpha_0)  # (T, N-1)
+    if "per_tendon_wrap" in effects:
+        if effects.get("per_tendon_wrap").model == "exact":
+            alpha = exact_wrap(theta, geometry)
+        else:
+            alpha = projected_wrap(theta, tendon_azimuths(geometry), geometry.alpha_0)
+    else:
+        alpha = wrap[:, :, None, None]  # the same wrap for every set and tendon
+    mu = friction.mu(alpha)
+    if np.any(mu < 0):
+        from tendon_id.errors import ConfigError
+
+        bad = float(np.max(alpha[np.nonzero(mu < 0)[:2]]) if alpha.ndim > 2 else np.max(alpha))
+        raise ConfigError(f"the friction law is negative at wraps this motion reaches (up to {bad:.2f} rad); use a law with mu >= 0 there")
+    if "velocity_friction" in effects:
+        p = effects.get("velocity_friction")
+        mu = velocity_dependent_mu(mu, sliding_speed(theta, geometry, reset, dt), p.v_ref, p.stribeck_drop, p.v_stribeck)
+    alpha_eff = alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha
+    phi = mu * alpha_eff
+    if "guide_wear" in effects:
+        phi = phi * guide_wear_factors(n - 1, effects.get("guide_wear").guides)[None, :, None, None]
+    phi = np.broadcast_to(phi, (n_frames, n - 1) + phi.shape[2:])
+
+    stick_slip = "stick_slip" in effects
+    bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
+    visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
+
+    chain = np.full((n_frames, n, n, 3), np.nan)
+    sigma = np.zeros((n_frames, n - 1, n, 3), dtype=np.int8)
+    log_t = np.log(actuator)  # (T, N sets, 3): ln T[k, j] for the sets still on the path
+    chain[:, 0] = actuator
+    for g in range(n - 1):  # guide k = g + 1 carries sets j = g + 2 .. N (index g + 1 ..)
+        x = log_t[:, g + 1 :]
+        ph = phi[:, g, g + 1 :] if phi.shape[2] == n else phi[:, g]
+        if bend > 0:
+            loss = bending_loss(alpha[:, g, g + 1 :] if alpha.shape[2] == n else alpha[:, g], bend)
+            lo = np.log(np.maximum(np.exp(x - ph) - loss, SLACK_FLOOR_N))
+            hi = np.log(np.exp(x + ph) + loss)
+        else:
+            lo, hi = x - ph, x + ph
+        if stick_slip:
+            res = play_operator_edges(lo, hi, reset)
+            y, sig = res.log_out, res.sigma
+        else:
+            y, sig = lo, np.ones(lo.shape, dtype=np.int8)
+        if visco is not None:
+            y = np.log(viscoelastic_lag(np.exp(y), dt, visco.tau_v, visco.kappa, reset))
+        sigma[:, g, g + 1 :] = sig
+        log_t = log_t.copy()
+        log_t[:, g + 1 :] = y
+        chain[:, g + 1, g + 1 :] = np.exp(y)
+    return TransmissionResult(chain=chain, sigma=sigma, wrap=wrap, phi=np.asarray(phi))
