@@ -60,7 +60,8 @@ class RobotGeometry:
         (DESIGN §4). Default 0.05.
     alpha_c : float
         Clearance angle of a hole: below it the tendon does not touch the
-        wall [rad]. Default 0.03.
+        wall [rad]. Default 0.08, above ``alpha_0``, so a nearly straight
+        guide is out of contact.
     azimuth_step : float
         Azimuth offset ``delta`` between consecutive tendon sets [rad]. The
         default ``2 pi / 36`` spreads the 36 holes of 12 sets evenly.
@@ -71,7 +72,7 @@ class RobotGeometry:
     joint_gap: float = 0.010
     hole_radius: float = 0.012
     alpha_0: float = 0.05
-    alpha_c: float = 0.03
+    alpha_c: float = 0.08
     azimuth_step: float = 2.0 * np.pi / 36.0
 
     def __post_init__(self) -> None:
@@ -239,10 +240,13 @@ def exact_wrap(theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None 
     sz = R[..., 2, 0] * ux + R[..., 2, 1] * uy + R[..., 2, 2] * h + h
     # Turn at the lower link's top hole: angle to e_z.
     turn_out_of_lower = np.arctan2(np.hypot(sx, sy), sz)
-    # Turn at the upper link's bottom hole: angle to the upper axis R e_z (a unit vector).
-    dot = sx * R[..., 0, 2] + sy * R[..., 1, 2] + sz * R[..., 2, 2]
-    perp = np.sqrt(np.maximum(sx * sx + sy * sy + sz * sz - dot * dot, 0.0))
-    turn_into_upper = np.arctan2(perp, dot)
+    # Turn at the upper link's bottom hole: the same segment seen from the upper link,
+    # R^T s = (u + h e_z) - R^T (u - h e_z), against its axis e_z (atan2 of components
+    # keeps tiny turns exact, where |s|^2 - (s.a)^2 would cancel).
+    vx = ux - (R[..., 0, 0] * ux + R[..., 1, 0] * uy - R[..., 2, 0] * h)
+    vy = uy - (R[..., 0, 1] * ux + R[..., 1, 1] * uy - R[..., 2, 1] * h)
+    vz = h - (R[..., 0, 2] * ux + R[..., 1, 2] * uy - R[..., 2, 2] * h)
+    turn_into_upper = np.arctan2(np.hypot(vx, vy), vz)
     # Guide k = link k: its bottom hole turns at joint k, its top hole at joint k+1.
     wrap = turn_into_upper[:, :-1] + turn_out_of_lower[:, 1:] + geometry.alpha_0
     return np.minimum(wrap, np.pi)

@@ -114,7 +114,7 @@ class GuideWear:
             if kk < 1 or vv <= 0:
                 raise ConfigError(f"guide_wear: guide {k} needs an index >= 1 and a factor > 0, got {v}")
             clean[kk] = vv
-        object.__setattr__(self, "guides", MappingProxyType(dict(sorted(clean.items()))))
+        object.__setattr__(self, "guides", dict(sorted(clean.items())))
 
 
 @dataclass(frozen=True)
@@ -225,11 +225,13 @@ class Effects:
         enabled = parse_effect_names(list(self.enabled))
         built = {}
         for name, cls in EFFECT_TYPES.items():
-            raw = dict(self.params.get(name, {}) or {}) if isinstance(self.params, Mapping) else {}
             value = self.params.get(name) if isinstance(self.params, Mapping) else None
             if isinstance(value, cls):
                 built[name] = value
                 continue
+            if value is not None and not isinstance(value, Mapping):
+                raise ConfigError(f"settings of effect {name!r} must be a table of values, got {value!r}")
+            raw = dict(value or {})
             known = {f.name for f in fields(cls)}
             unknown = sorted(set(raw) - known)
             if unknown:

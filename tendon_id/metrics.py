@@ -1,0 +1,50 @@
+"""Metrics of the paper's tables (DESIGN §8): RMSE, R^2 and max error per tendon, averaged over tendons."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+
+def tendon_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float]:
+    """RMSE [N], R^2 [-] and maximum absolute error [N], each per tendon then averaged.
+
+    Parameters
+    ----------
+    pred, true : array_like, shape (T, 3)
+        Estimated and reference tensions [N] of the three tendons.
+
+    Returns
+    -------
+    dict
+        ``{"rmse", "r2", "max_error"}``, the metrics object ``M`` of DESIGN §10.
+        R^2 is ``1 - SSE / SST`` per tendon (negative when worse than the mean).
+    """
+    p = np.asarray(pred, dtype=float)
+    y = np.asarray(true, dtype=float)
+    if p.shape != y.shape or p.ndim != 2:
+        raise ValueError(f"pred and true must both be (T, 3); got {p.shape} and {y.shape}")
+    err = p - y
+    rmse = np.sqrt(np.mean(err**2, axis=0))
+    sst = np.sum((y - y.mean(axis=0)) ** 2, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r2 = np.where(sst > 0, 1.0 - np.sum(err**2, axis=0) / sst, np.nan)
+    return {"rmse": float(np.mean(rmse)), "r2": float(np.nanmean(r2)), "max_error": float(np.mean(np.max(np.abs(err), axis=0)))}
+
+
+def frame_weighted(metrics: Sequence[dict[str, float]], frames: Sequence[int]) -> dict[str, float]:
+    """Overall metrics across protocols, weighted by frame count (the paper's "Overall" column).
+
+    RMSE is pooled as ``sqrt(sum n_p rmse_p^2 / sum n_p)``; R^2 and max error are
+    frame-weighted means.
+    """
+    w = np.asarray(frames, dtype=float)
+    if w.sum() <= 0:
+        raise ValueError("frame counts must be positive")
+    w = w / w.sum()
+    rmse = float(np.sqrt(np.sum(w * np.array([m["rmse"] for m in metrics]) ** 2)))
+    r2 = float(np.sum(w * np.array([m["r2"] for m in metrics])))
+    mx = float(np.sum(w * np.array([m["max_error"] for m in metrics])))
+    return {"rmse": rmse, "r2": r2, "max_error": mx}

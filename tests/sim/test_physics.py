@@ -1,0 +1,137 @@
+"""Physics invariants of the simulator (DESIGN §5; issue acceptance)."""
+
+import numpy as np
+import pytest
+
+from friction_models import affine_cosine_mu
+from tendon_id.datasets import load_recipe
+from tendon_id.errors import ConfigError
+from tendon_id.geometry import backbone_wrap
+from tendon_id.sim import EFFECT_NAMES, PROTOCOL_NAMES, simulate
+
+
+@pytest.fixture(scope="module")
+def recipe():
+    return load_recipe("snake12-paper")
+
+
+def guide_ratios(res):
+    """r[t, k-1, j-1, i] = T[k+1, j, i] / T[k, j, i] (NaN off the path)."""
+    c = res.chain
+    with np.errstate(invalid="ignore"):
+        return c[:, 1:] / c[:, :-1]
+
+
+@pytest.mark.parametrize("protocol", ["posterior-6", "planned-paths"])
+def test_without_effects_every_guide_ratio_is_the_capstan_law(recipe, protocol):
+    res = simulate(recipe, protocol, effects="none", frames=600, seed=3)
+    A, B = np.array(recipe.friction.A), np.array(recipe.friction.B)
+    alpha = backbone_wrap(res.theta_true, recipe.robot.alpha_0)[..., None, None]  # (T, N-1, 1, 1)
+    expected = np.exp(-affine_cosine_mu(alpha, A, B) * alpha)  # paper Eqs. (4)-(6), beta = sigma = 1
+    r = guide_ratios(res)
+    n = recipe.robot.n_modules
+    on_path = np.arange(1, n)[:, None] < np.arange(1, n + 1)[None, :]  # guide k carries set j iff k < j
+    got = r[:, on_path]
+    want = np.broadcast_to(expected, r.shape)[:, on_path]
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=0)
+    assert np.all(np.isnan(r[:, ~on_path]))
+
+
+def test_stick_slip_ratios_stay_in_the_cone_and_sigma_says_which_edge(recipe):
+    res = simulate(recipe, "posterior-3", effects="stick_slip", frames=800, seed=5)
+    n = recipe.robot.n_modules
+    phi = np.broadcast_to(res_phi(recipe, res), (res.chain.shape[0], n - 1, n, 3))
+    r = guide_ratios(res)
+    on_path = (np.arange(1, n)[:, None] < np.arange(1, n + 1)[None, :])
+    lo, hi = np.exp(-phi), np.exp(phi)
+    rr, ll, hh, sg = r[:, on_path], lo[:, on_path], hi[:, on_path], res.sigma[:, on_path]
+    assert np.all(rr >= ll * (1 - 1e-12)) and np.all(rr <= hh * (1 + 1e-12))
+    np.testing.assert_allclose(rr[sg == 1], ll[sg == 1], rtol=1e-9)
+    np.testing.assert_allclose(rr[sg == -1], hh[sg == -1], rtol=1e-9)
+    inside = sg == 0
+    assert np.all((rr[inside] > ll[inside]) & (rr[inside] < hh[inside]))
+    # Steps and returns make the tendons stick and slip both ways.
+    assert set(np.unique(sg)) == {-1, 0, 1}
+
+
+def res_phi(recipe, res):
+    A, B = np.array(recipe.friction.A), np.array(recipe.friction.B)
+    alpha = backbone_wrap(res.theta_true, recipe.robot.alpha_0)[..., None, None]
+    return affine_cosine_mu(alpha, A, B) * alpha
+
+
+def test_set_j_passes_exactly_guides_1_to_j_minus_1(recipe):
+    res = simulate(recipe, "planned-paths", effects="none", frames=300, seed=1)
+    n = recipe.robot.n_modules
+    phi = res_phi(recipe, res)[..., 0, :]  # (T, N-1, 3)
+    cum = np.concatenate([np.zeros_like(phi[:, :1]), np.cumsum(phi, axis=1)], axis=1)  # sum over guides < j
+    joint = res.chain[:, np.arange(n), np.arange(n)]
+    np.testing.assert_allclose(joint / res.chain[:, 0], np.exp(-cum), rtol=1e-9)
+    for j in range(1, n + 1):
+        assert np.all(np.isnan(res.chain[:, j:, j - 1])), f"set {j} must not reach guide {j} or beyond"
+        assert np.all(np.isfinite(res.chain[:, :j, j - 1]))
+
+
+def test_set_1_joint_side_equals_its_actuator_side(recipe):
+    rec = simulate(recipe, "posterior-3", frames=300, seed=2).recording
+    np.testing.assert_array_equal(rec.joint_truth[:, 0], rec.actuator[:, 0])
+    np.testing.assert_array_equal(rec.joint_truth[:, -1], rec.terminal)
+
+
+def test_same_seed_same_bytes_and_other_seed_differs(recipe, tmp_path):
+    a = simulate(recipe, "posterior-6", frames=400, seed=7).recording.write(tmp_path / "a.parquet")
+    b = simulate(recipe, "posterior-6", frames=400, seed=7).recording.write(tmp_path / "b.parquet")
+    c = simulate(recipe, "posterior-6", frames=400, seed=8).recording.write(tmp_path / "c.parquet")
+    assert a.read_bytes() == b.read_bytes()
+    assert a.read_bytes() != c.read_bytes()
+
+
+@pytest.mark.parametrize("protocol", [p for p in PROTOCOL_NAMES if p != "single-passage"])
+def test_protocols_are_quasi_static_and_taut(recipe, protocol):
+    res = simulate(recipe, protocol, frames=3000, seed=0)
+    rec = res.recording
+    assert rec.n_frames == 3000 and rec.n_modules == 12
+    speed = np.abs(np.diff(res.theta_true, axis=0)).max(axis=(1, 2)) * recipe.sample_rate_hz
+    speed = speed[~rec.trajectory_starts[1:]]
+    assert np.percentile(np.rad2deg(speed), 99) < 9.0  # paper §III-D
+    assert rec.actuator.min() >= 62.0  # the paper's taut regime
+    assert rec.terminal.min() > 0
+
+
+def test_single_passage_is_a_two_module_rig(recipe):
+    res = simulate(recipe, "single-passage", frames=500, seed=0)
+    assert res.recording.n_modules == 2
+    assert res.chain.shape[1:] == (2, 2, 3)
+
+
+@pytest.mark.parametrize("effect", EFFECT_NAMES)
+def test_every_effect_switches_and_changes_the_transmission(recipe, effect):
+    base = simulate(recipe, "planned-paths", effects="none", frames=400, seed=4).recording
+    on = simulate(recipe, "planned-paths", effects=effect, frames=400, seed=4).recording
+    assert on.meta["effects"] == [effect]
+    # Inputs are identical; only the physics differs.
+    np.testing.assert_array_equal(on.actuator, base.actuator)
+    np.testing.assert_array_equal(on.angles, base.angles)
+    assert not np.allclose(on.terminal, base.terminal, rtol=1e-6, atol=1e-6)
+    if effect == "sensor_bias":  # a sensor effect leaves the physical truth alone
+        np.testing.assert_array_equal(on.joint_truth[:, :-1], base.joint_truth[:, :-1])
+
+
+def test_contact_gate_removes_loss_below_the_clearance(recipe):
+    import dataclasses
+
+    r = dataclasses.replace(recipe, robot=dataclasses.replace(recipe.robot, alpha_c=0.2))
+    res = simulate(r, "posterior-3", effects="contact", frames=300, seed=0)
+    wrap = res.wrap
+    ratios = guide_ratios(res)[:, :, -1, :]  # terminal set through every guide
+    np.testing.assert_allclose(ratios[wrap <= 0.2], 1.0, rtol=1e-12)
+    assert np.all(ratios[wrap > 0.2] < 1.0)
+
+
+def test_bad_simulation_requests(recipe):
+    with pytest.raises(ConfigError, match="unknown protocol"):
+        simulate(recipe, "posterior-9")
+    with pytest.raises(ConfigError, match="unknown effect"):
+        simulate(recipe, "posterior-3", effects="magic")
+    with pytest.raises(ConfigError, match="frames"):
+        simulate(recipe, "posterior-3", frames=1)
