@@ -20,8 +20,6 @@ sys.path.insert(0, str(ROOT))  # import the checkout even without an editable in
 
 # Datasets built while the docs run are cached inside the build folder, never in ~/.cache.
 os.environ["TENDON_ID_CACHE"] = str(HERE / "_build" / "tendon-id-cache")
-# The examples must not open progress bars in the build log.
-os.environ.setdefault("TQDM_DISABLE", "1")
 
 import tendon_id  # noqa: E402
 
@@ -44,7 +42,7 @@ extensions = [
 ]
 
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "**.ipynb_checkpoints", "examples/README.rst"]
-templates_path: list[str] = []
+templates_path = ["_templates"]
 root_doc = "index"
 default_role = "literal"  # `x` in prose is code, never a cross-reference that could fail
 nitpicky = False
@@ -52,7 +50,7 @@ nitpicky = False
 # autodoc / autosummary
 autosummary_generate = True
 autosummary_imported_members = False
-autodoc_default_options = {"members": True, "show-inheritance": False}
+autodoc_default_options = {"members": True}
 autodoc_member_order = "bysource"
 autodoc_typehints = "none"  # numpydoc docstrings already say the types
 autodoc_mock_imports: list[str] = []

@@ -203,7 +203,33 @@ def joint_rotation(theta: ArrayLike) -> NDArray[np.float64]:
     return R
 
 
-def exact_wrap(theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None = None) -> NDArray[np.float64]:
+def _turn_out_of_lower(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
+    """Turn [rad] at a lower link's top hole: the segment across the joint against e_z.
+
+    The segment in the lower link's frame is ``R (u + h e_z) - (u - h e_z)``, written out
+    per component (an einsum over a trailing xyz axis is several times slower).
+    """
+    sx = R[..., 0, 0] * ux + R[..., 0, 1] * uy + R[..., 0, 2] * h - ux
+    sy = R[..., 1, 0] * ux + R[..., 1, 1] * uy + R[..., 1, 2] * h - uy
+    sz = R[..., 2, 0] * ux + R[..., 2, 1] * uy + R[..., 2, 2] * h + h
+    return np.arctan2(np.hypot(sx, sy), sz)
+
+
+def _turn_into_upper(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
+    """Turn [rad] at an upper link's bottom hole: the segment seen from the upper link.
+
+    ``R^T s = (u + h e_z) - R^T (u - h e_z)`` against e_z; atan2 of components keeps tiny
+    turns exact, where ``|s|^2 - (s . a)^2`` would cancel.
+    """
+    vx = ux - (R[..., 0, 0] * ux + R[..., 1, 0] * uy - R[..., 2, 0] * h)
+    vy = uy - (R[..., 0, 1] * ux + R[..., 1, 1] * uy - R[..., 2, 1] * h)
+    vz = h - (R[..., 0, 2] * ux + R[..., 1, 2] * uy - R[..., 2, 2] * h)
+    return np.arctan2(np.hypot(vx, vy), vz)
+
+
+def exact_wrap(
+    theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None = None, *, on_path_only: bool = False
+) -> NDArray[np.float64]:
     """Per-tendon wrap from the forward kinematics of the hole points.
 
     Across joint ``k`` the tendon runs straight from its hole in the top disk
@@ -211,8 +237,8 @@ def exact_wrap(theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None 
     runs along the link's axis.  The turn at a hole is the angle between the
     consecutive segments, and guide ``k`` collects the turns at both ends of
     link ``k`` (from joints ``k`` and ``k+1``), plus the routing wrap ``alpha_0``.
-    For a bend in one plane this reduces to :func:`backbone_wrap`; the Cardan
-    twist of :func:`joint_rotation` spreads the turns unevenly over tendons.
+    For a bend about one Cardan axis this reduces to :func:`backbone_wrap`; the
+    Cardan twist of :func:`joint_rotation` spreads the turns unevenly over tendons.
 
     Parameters
     ----------
@@ -222,6 +248,9 @@ def exact_wrap(theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None 
         Hole radius and joint gap.
     psi : array_like, shape (S, 3), optional
         Azimuths; default :func:`tendon_azimuths`.
+    on_path_only : bool
+        Compute only where set ``j`` passes guide ``k`` (``k < j``, needs
+        ``S = N``) and leave NaN elsewhere: half the work, for the simulator.
 
     Returns
     -------
@@ -231,25 +260,23 @@ def exact_wrap(theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None 
     theta = np.asarray(theta, dtype=float)
     psi = tendon_azimuths(geometry) if psi is None else np.asarray(psi, dtype=float)
     rho, h = geometry.hole_radius, 0.5 * geometry.joint_gap
-    R = joint_rotation(theta)[:, :, None, None]  # (T, N, 1, 1, 3, 3), broadcast over (S, 3) tendons
     ux, uy = rho * np.cos(psi), rho * np.sin(psi)  # hole offsets in the disk plane, (S, 3)
-    # Segment across each joint in the lower link's frame: R @ (u + h e_z) - (u - h e_z),
-    # written out per component (an einsum over a trailing xyz axis is several times slower).
-    sx = R[..., 0, 0] * ux + R[..., 0, 1] * uy + R[..., 0, 2] * h - ux
-    sy = R[..., 1, 0] * ux + R[..., 1, 1] * uy + R[..., 1, 2] * h - uy
-    sz = R[..., 2, 0] * ux + R[..., 2, 1] * uy + R[..., 2, 2] * h + h
-    # Turn at the lower link's top hole: angle to e_z.
-    turn_out_of_lower = np.arctan2(np.hypot(sx, sy), sz)
-    # Turn at the upper link's bottom hole: the same segment seen from the upper link,
-    # R^T s = (u + h e_z) - R^T (u - h e_z), against its axis e_z (atan2 of components
-    # keeps tiny turns exact, where |s|^2 - (s.a)^2 would cancel).
-    vx = ux - (R[..., 0, 0] * ux + R[..., 1, 0] * uy - R[..., 2, 0] * h)
-    vy = uy - (R[..., 0, 1] * ux + R[..., 1, 1] * uy - R[..., 2, 1] * h)
-    vz = h - (R[..., 0, 2] * ux + R[..., 1, 2] * uy - R[..., 2, 2] * h)
-    turn_into_upper = np.arctan2(np.hypot(vx, vy), vz)
-    # Guide k = link k: its bottom hole turns at joint k, its top hole at joint k+1.
-    wrap = turn_into_upper[:, :-1] + turn_out_of_lower[:, 1:] + geometry.alpha_0
-    return np.minimum(wrap, np.pi)
+    R = joint_rotation(theta)  # (T, N, 3, 3)
+    n = theta.shape[1]
+    if not on_path_only:
+        Rb = R[:, :, None, None]  # broadcast over the (S, 3) tendons
+        into_upper, out_of_lower = _turn_into_upper(Rb, ux, uy, h), _turn_out_of_lower(Rb, ux, uy, h)
+        # Guide k = link k: its bottom hole turns at joint k, its top hole at joint k+1.
+        return np.minimum(into_upper[:, :-1] + out_of_lower[:, 1:] + geometry.alpha_0, np.pi)
+    if psi.shape[0] != n:
+        raise ValueError("on_path_only needs one row of azimuths per set (S = N)")
+    k, j = np.nonzero(np.arange(1, n)[:, None] < np.arange(1, n + 1)[None, :])  # guide index k-1, set index j-1
+    ux_p, uy_p = ux[j], uy[j]  # (P, 3)
+    into_upper = _turn_into_upper(R[:, k, None], ux_p, uy_p, h)  # at joint k
+    out_of_lower = _turn_out_of_lower(R[:, k + 1, None], ux_p, uy_p, h)  # at joint k+1
+    wrap = np.full((theta.shape[0], n - 1, n, 3), np.nan)
+    wrap[:, k, j] = np.minimum(into_upper + out_of_lower + geometry.alpha_0, np.pi)
+    return wrap
 
 
 def contact_gate(alpha: ArrayLike, geometry: RobotGeometry, *, smooth: bool = False, width: float = 0.01) -> NDArray:

@@ -78,6 +78,16 @@ def test_exact_wrap_is_close_to_backbone_and_in_range(theta):
     assert np.all(np.abs(e - b[..., None, None]) <= bound[..., None, None])
 
 
+def test_on_path_only_matches_the_full_computation():
+    rng = np.random.default_rng(0)
+    theta = rng.uniform(-0.4, 0.4, size=(20, 5, 2))
+    full = exact_wrap(theta, GEOM)
+    part = exact_wrap(theta, GEOM, on_path_only=True)
+    on_path = np.arange(1, 5)[:, None] < np.arange(1, 6)[None, :]
+    np.testing.assert_array_equal(part[:, on_path], full[:, on_path])
+    assert np.all(np.isnan(part[:, ~on_path]))
+
+
 def test_straight_robot_has_only_the_routing_wrap():
     z = np.zeros((1, 5, 2))
     np.testing.assert_allclose(exact_wrap(z, GEOM), GEOM.alpha_0)

@@ -167,7 +167,7 @@ def transmit(
     wrap = backbone_wrap(theta, geometry.alpha_0)  # (T, N-1)
     if "per_tendon_wrap" in effects:
         if effects.get("per_tendon_wrap").model == "exact":
-            alpha = exact_wrap(theta, geometry)
+            alpha = exact_wrap(theta, geometry, on_path_only=True)
         else:
             alpha = projected_wrap(theta, tendon_azimuths(geometry), geometry.alpha_0)
     else:
@@ -176,7 +176,7 @@ def transmit(
     if np.any(mu < 0):
         from tendon_id.errors import ConfigError
 
-        bad = float(np.max(alpha[np.nonzero(mu < 0)[:2]]) if alpha.ndim > 2 else np.max(alpha))
+        bad = float(np.nanmax(np.where(mu < 0, np.broadcast_to(alpha, mu.shape), np.nan)))
         raise ConfigError(f"the friction law is negative at wraps this motion reaches (up to {bad:.2f} rad); use a law with mu >= 0 there")
     if "velocity_friction" in effects:
         p = effects.get("velocity_friction")
