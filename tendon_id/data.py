@@ -30,7 +30,6 @@ import json
 import math
 import os
 import re
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -38,6 +37,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from tendon_id.atomic import atomic_write
 from tendon_id.errors import ConfigError, RecordingError
 
 __all__ = ["SCHEMA_VERSION", "META_KEY", "DEFAULT_SAMPLE_RATE_HZ", "column_names", "Recording"]
@@ -274,24 +274,6 @@ def _first_true(mask: np.ndarray) -> int | None:
 def _short(value: Any, width: int = 40) -> str:
     r = repr(value)
     return r if len(r) <= width else r[: width - 3] + "..."
-
-
-def _atomic_write(path: Path, write) -> None:
-    """Call ``write(tmp_path)`` on a temporary file in ``path``'s folder, then rename it over.
-
-    A reader never sees a half-written file, and a failed write leaves the old file intact.
-    """
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
 
 
 def _sidecar(path: Path) -> Path:
@@ -755,9 +737,9 @@ class Recording:
                 self._write_parquet(path)
             else:
                 # Sidecar first: a reader that sees the new CSV also sees its metadata.
-                _atomic_write(_sidecar(path),
+                atomic_write(_sidecar(path),
                               lambda tmp: Path(tmp).write_text(meta_text, encoding="utf-8"))
-                _atomic_write(path, lambda tmp: self._frame.to_csv(
+                atomic_write(path, lambda tmp: self._frame.to_csv(
                     tmp, index=False, lineterminator="\n", encoding="utf-8"))
         except OSError as exc:
             raise RecordingError(f"cannot write ({_first_line(exc)})", file=str(path)) from exc
@@ -779,7 +761,7 @@ class Recording:
         # Only our metadata: pandas' block would tie the bytes to the pandas version.
         table = table.replace_schema_metadata(
             {META_KEY: _meta_json(self._meta, separators=(",", ":")).encode("utf-8")})
-        _atomic_write(path, lambda tmp: pq.write_table(table, tmp, **_PARQUET_OPTIONS))
+        atomic_write(path, lambda tmp: pq.write_table(table, tmp, **_PARQUET_OPTIONS))
 
     # ---- selection -------------------------------------------------------------------------
 

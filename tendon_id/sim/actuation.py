@@ -20,7 +20,8 @@ class Actuation:
     pretension level ``P`` (from the protocol's ``pretension_n`` range), a slow
     relative variation ``s`` of RMS ``v``, and the puller's antagonistic share
     ``g`` times the commanded bend of joint ``j`` projected on the tendon's
-    azimuth (tendons on the outside of the bend are followers and keep ``P``).
+    azimuth (tendons on the outside of the bend are followers and keep ``P``),
+    saturated at the controller's tension limit.
     The paper's taut regime (§III-D: minimum 62 N, 5th percentile 77 N) is
     respected by the pretension ranges of the recipes.
 
@@ -32,15 +33,19 @@ class Actuation:
         RMS of the slow relative variation ``v`` [-]. Default 0.04.
     variation_period_s : tuple of float
         Range of periods of the slow variation [s]. Default (20, 90).
+    max_tension_n : float
+        The controller's tension limit [N]; commands saturate there, so a
+        load cell of 500 N range never clips. Default 450.
     """
 
     gain_n_per_rad: float = 600.0
     variation: float = 0.04
     variation_period_s: tuple[float, float] = (20.0, 90.0)
+    max_tension_n: float = 450.0
 
     def __post_init__(self) -> None:
-        if self.gain_n_per_rad < 0 or not 0 <= self.variation < 0.25:
-            raise ConfigError("actuation needs gain_n_per_rad >= 0 and 0 <= variation < 0.25")
+        if self.gain_n_per_rad < 0 or not 0 <= self.variation < 0.25 or not self.max_tension_n > 0:
+            raise ConfigError("actuation needs gain_n_per_rad >= 0, 0 <= variation < 0.25 and max_tension_n > 0")
         object.__setattr__(self, "variation_period_s", tuple(float(p) for p in self.variation_period_s))
 
     def tensions(self, rng: np.random.Generator, theta: NDArray, pretension: float, geometry: RobotGeometry, dt: float) -> NDArray:
@@ -56,4 +61,5 @@ class Actuation:
         psi = tendon_azimuths(geometry)  # (N, 3)
         own_bend = theta[:, :, 0, None] * np.cos(psi) + theta[:, :, 1, None] * np.sin(psi)  # b_j(psi_ji)
         slow = smooth_noise(rng, theta.shape[0], psi.shape, self.variation_period_s, dt)
-        return pretension * (1.0 + self.variation * slow) + self.gain_n_per_rad * np.maximum(own_bend, 0.0)
+        command = pretension * (1.0 + self.variation * slow) + self.gain_n_per_rad * np.maximum(own_bend, 0.0)
+        return np.minimum(command, self.max_tension_n)

@@ -27,7 +27,15 @@ from friction_models import (
     velocity_dependent_mu,
     viscoelastic_lag,
 )
-from tendon_id.geometry import RobotGeometry, backbone_wrap, exact_wrap, projected_wrap, tendon_azimuths
+from tendon_id.geometry import (
+    RobotGeometry,
+    _turn_into_upper,
+    _turn_out_of_lower,
+    backbone_wrap,
+    joint_rotation,
+    projected_bend,
+    tendon_azimuths,
+)
 from tendon_id.sim.effects import Effects
 
 #: Smallest tension [N] a bending-stiffness loss may leave; the taut regime
@@ -90,8 +98,8 @@ class TransmissionResult:
         ``stick_slip`` every passing tendon is in forward slip.
     wrap : ndarray, shape (T, N-1)
         Backbone wrap per guide [rad].
-    phi : ndarray, shape (T, N-1, N|1, 3)
-        Capstan exponent actually applied.
+    phi : ndarray, shape (T, N-1, N, 3)
+        Capstan exponent actually applied (NaN off the path).
     """
 
     chain: NDArray[np.float64]
@@ -138,6 +146,13 @@ def sliding_speed(theta: NDArray, geometry: RobotGeometry, reset: NDArray, dt: f
     return geometry.hole_radius * np.abs(length_rate) * (k < j)[None, :, :, None]
 
 
+def _sliding_speed_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) -> NDArray:
+    """:func:`sliding_speed` for one guide (index ``g``) and the sets beyond it, shape (T, N-g-1, 3)."""
+    beyond = cum_rate[:, g + 1 :] - cum_rate[:, g, None]  # sum of theta_m rates, m = k+1..j
+    psi_on = psi[g + 1 :]
+    return hole_radius * np.abs(beyond[..., 0, None] * np.cos(psi_on) + beyond[..., 1, None] * np.sin(psi_on))
+
+
 def transmit(
     theta: NDArray,
     actuator: NDArray,
@@ -165,41 +180,53 @@ def transmit(
     n = geometry.n_modules
     n_frames = theta.shape[0]
     wrap = backbone_wrap(theta, geometry.alpha_0)  # (T, N-1)
-    if "per_tendon_wrap" in effects:
-        if effects.get("per_tendon_wrap").model == "exact":
-            alpha = exact_wrap(theta, geometry, on_path_only=True)
-        else:
-            alpha = projected_wrap(theta, tendon_azimuths(geometry), geometry.alpha_0)
-    else:
-        alpha = wrap[:, :, None, None]  # the same wrap for every set and tendon
-    mu = friction.mu(alpha)
-    if np.any(mu < 0):
-        from tendon_id.errors import ConfigError
-
-        bad = float(np.nanmax(np.where(mu < 0, np.broadcast_to(alpha, mu.shape), np.nan)))
-        raise ConfigError(f"the friction law is negative at wraps this motion reaches (up to {bad:.2f} rad); use a law with mu >= 0 there")
+    psi = tendon_azimuths(geometry)
+    wrap_model = effects.get("per_tendon_wrap").model if "per_tendon_wrap" in effects else None
+    if wrap_model == "exact":
+        R = joint_rotation(theta)
+        ux, uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
+    elif wrap_model == "projected":
+        bend_abs = np.abs(projected_bend(theta, psi))  # (T, N joints, N sets, 3)
     if "velocity_friction" in effects:
-        p = effects.get("velocity_friction")
-        mu = velocity_dependent_mu(mu, sliding_speed(theta, geometry, reset, dt), p.v_ref, p.stribeck_drop, p.v_stribeck)
-    alpha_eff = alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha
-    phi = mu * alpha_eff
-    if "guide_wear" in effects:
-        phi = phi * guide_wear_factors(n - 1, effects.get("guide_wear").guides)[None, :, None, None]
-    phi = np.broadcast_to(phi, (n_frames, n - 1) + phi.shape[2:])
-
+        vf = effects.get("velocity_friction")
+        cum_rate = _backward_rate(np.cumsum(theta, axis=1), reset, dt)  # d/dt of sum_{m<=j} theta_m
+    wear = guide_wear_factors(n - 1, effects.get("guide_wear").guides) if "guide_wear" in effects else None
     stick_slip = "stick_slip" in effects
     bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
     visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
 
     chain = np.full((n_frames, n, n, 3), np.nan)
     sigma = np.zeros((n_frames, n - 1, n, 3), dtype=np.int8)
+    phi_all = np.full((n_frames, n - 1, n, 3), np.nan)
     log_t = np.log(actuator)  # (T, N sets, 3): ln T[k, j] for the sets still on the path
     chain[:, 0] = actuator
-    for g in range(n - 1):  # guide k = g + 1 carries sets j = g + 2 .. N (index g + 1 ..)
-        x = log_t[:, g + 1 :]
-        ph = phi[:, g, g + 1 :] if phi.shape[2] == n else phi[:, g]
+    # Guide k = g + 1 carries sets j = g + 2 .. N (index g + 1 ..).  Its quantities are built
+    # guide by guide, so memory stays at (T, sets, 3) however long the chain.
+    for g in range(n - 1):
+        on = slice(g + 1, n)
+        if wrap_model == "exact":  # turns at joint k (into link k) and joint k+1 (out of link k)
+            alpha = _turn_into_upper(R[:, g, None, None], ux[on], uy[on], 0.5 * geometry.joint_gap)
+            alpha = alpha + _turn_out_of_lower(R[:, g + 1, None, None], ux[on], uy[on], 0.5 * geometry.joint_gap)
+            alpha = np.minimum(alpha + geometry.alpha_0, np.pi)
+        elif wrap_model == "projected":
+            alpha = np.minimum(0.5 * bend_abs[:, g, on] + 0.5 * bend_abs[:, g + 1, on] + geometry.alpha_0, np.pi)
+        else:
+            alpha = wrap[:, g, None, None]  # the backbone wrap, shared by every set and tendon
+        mu = friction.mu(alpha)
+        if np.any(mu < 0):
+            from tendon_id.errors import ConfigError
+
+            bad = float(np.max(np.broadcast_to(alpha, mu.shape)[mu < 0]))
+            raise ConfigError(f"the friction law is negative at wraps this motion reaches ({bad:.2f} rad at guide {g + 1}); use a law with mu >= 0 there")
+        if "velocity_friction" in effects:
+            mu = velocity_dependent_mu(mu, _sliding_speed_at(cum_rate, g, psi, geometry.hole_radius), vf.v_ref, vf.stribeck_drop, vf.v_stribeck)
+        ph = mu * (alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha)
+        if wear is not None:
+            ph = ph * wear[g]
+        x = log_t[:, on]
+        ph = np.broadcast_to(ph, x.shape)
         if bend > 0:
-            loss = bending_loss(alpha[:, g, g + 1 :] if alpha.shape[2] == n else alpha[:, g], bend)
+            loss = bending_loss(alpha, bend)
             lo = np.log(np.maximum(np.exp(x - ph) - loss, SLACK_FLOOR_N))
             hi = np.log(np.exp(x + ph) + loss)
         else:
@@ -211,8 +238,8 @@ def transmit(
             y, sig = lo, np.ones(lo.shape, dtype=np.int8)
         if visco is not None:
             y = np.log(viscoelastic_lag(np.exp(y), dt, visco.tau_v, visco.kappa, reset))
-        sigma[:, g, g + 1 :] = sig
-        log_t = log_t.copy()
-        log_t[:, g + 1 :] = y
-        chain[:, g + 1, g + 1 :] = np.exp(y)
-    return TransmissionResult(chain=chain, sigma=sigma, wrap=wrap, phi=np.asarray(phi))
+        sigma[:, g, on] = sig
+        phi_all[:, g, on] = ph
+        log_t[:, on] = y
+        chain[:, g + 1, on] = np.exp(y)
+    return TransmissionResult(chain=chain, sigma=sigma, wrap=wrap, phi=phi_all)

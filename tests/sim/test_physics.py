@@ -95,6 +95,7 @@ def test_protocols_are_quasi_static_and_taut(recipe, protocol):
     speed = speed[~rec.trajectory_starts[1:]]
     assert np.percentile(np.rad2deg(speed), 99) < 9.0  # paper §III-D
     assert rec.actuator.min() >= 62.0  # the paper's taut regime
+    assert rec.actuator.max() < recipe.sensors.range_n  # the load cells never clip
     assert rec.terminal.min() > 0
 
 
