@@ -112,7 +112,7 @@ res = fm.play_operator(np.log(t_in), phi)
 t_out = np.exp(res.log_out)
 print(f"phi = {phi:.3f}; the cone is T_in x [{np.exp(-phi):.3f}, {np.exp(phi):.3f}]")
 
-fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
+fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), layout="constrained")
 ax = axes[0]
 lo, hi = t_in * np.exp(-phi), t_in * np.exp(phi)
 order = np.argsort(t_in)
@@ -135,7 +135,7 @@ ax.plot(t, t_in * np.exp(-phi), color="C0", ls=":", label=r"$T_{in}e^{-\phi}$ (a
 ax.set_xlabel("time [s]")
 ax.set_ylabel("tension [N]")
 ax.set_title("in time: the output sticks after each reversal")
-ax.legend(fontsize=8)
+ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=3)
 plt.show()
 
 # %%

@@ -53,7 +53,7 @@ rows = np.flatnonzero(rec.trajectory_ids == traj)
 t = rec.time[rows]
 tendon = 0  # tendon i = 1
 
-fig, axes = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True, layout="constrained")
+fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, layout="constrained")
 ax = axes[0]
 ax.plot(t, rec.actuator[rows, n - 1, tendon], color="k", lw=2, label=r"actuator side $T[1, 12, 1]$ (measured)")
 for k in (4, 8, 11):
@@ -61,7 +61,7 @@ for k in (4, 8, 11):
 ax.plot(t, rec.terminal[rows, tendon], color="C3", lw=1.5, label=r"terminal label $T[12, 12, 1]$ (measured)")
 ax.set_ylabel("tension [N]")
 ax.set_title(f"set 12, tendon 1, trajectory {traj}")
-ax.legend(fontsize=8, loc="best")
+ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
 
 ax = axes[1]
 j = 10
@@ -71,7 +71,7 @@ for i in range(3):
 ax.set_ylabel("tension [N]")
 ax.set_xlabel("time [s]")
 ax.set_title(f"joint {j}: actuator side (dashed) vs joint-side truth (solid)")
-ax.legend(fontsize=8)
+ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
 plt.show()
 
 # %%
@@ -86,36 +86,42 @@ print("truth columns before:", rec.has_truth, "- in the fitting view:", rec.fitt
 #
 # The backbone wrap :math:`\alpha_k` of each guide (``result.wrap``, the paper's
 # :math:`\mathrm{Geom}(q_k)`) follows the steps of modules 10--12, on top of the routing wrap
-# :math:`\alpha_0` and the held proximal pose. The recipe's ``per_tendon_wrap`` effect makes the
-# truth use each tendon's exact wrap from forward kinematics instead, which differs per tendon
-# and with the bending direction; the models only see the backbone wrap.
+# :math:`\alpha_0` and the held proximal pose. Below the clearance angle :math:`\alpha_c` the
+# ``contact`` gate is closed and the guide loses nothing.
+#
+# The recipe's ``per_tendon_wrap`` effect makes the truth use each tendon's exact wrap from the
+# forward kinematics of the hole points instead (:func:`tendon_id.geometry.exact_wrap`). The
+# models only see the backbone wrap. The difference comes from the Cardan twist, so it appears
+# only where both axes of a joint are bent (here at the held proximal joints, not at the
+# single-axis steps of joints 10--12), and at bends of a few degrees it is a fraction of a degree.
 
 from tendon_id.geometry import RobotGeometry, exact_wrap
 
 geometry = RobotGeometry.from_dict(rec.meta["robot"])
 exact = exact_wrap(result.theta_true[rows], geometry)  # (T, N-1, N, 3)
 
-fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
+fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), layout="constrained")
 ax = axes[0]
 colors = plt.cm.viridis(np.linspace(0, 1, n - 1))
 for k in range(1, n):
     ax.plot(t, np.degrees(result.wrap[rows, k - 1]), color=colors[k - 1], label=f"guide {k}")
 ax.axhline(np.degrees(geometry.alpha_c), color="gray", ls=":", lw=1)
-ax.text(t[0], np.degrees(geometry.alpha_c), r" clearance $\alpha_c$", va="bottom", fontsize=8, color="gray")
+ax.text(t[-1], np.degrees(geometry.alpha_c), r"clearance $\alpha_c$ ", ha="right", va="bottom", fontsize=8, color="gray")
 ax.set_xlabel("time [s]")
 ax.set_ylabel("backbone wrap [deg]")
 ax.set_title("backbone wrap per guide")
-ax.legend(fontsize=7, ncol=2)
+ax.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.01, 1.0))
 
 ax = axes[1]
-g = n - 1  # the last guide, between joints 11 and 12
-ax.plot(t, np.degrees(result.wrap[rows, g - 1]), color="k", lw=2, label="backbone")
-for i in range(3):
-    ax.plot(t, np.degrees(exact[:, g - 1, n - 1, i]), lw=1, label=f"exact, set 12 tendon {i + 1}")
+for k in (2, 5, 10):
+    for i in range(3):
+        diff = np.degrees(exact[:, k - 1, n - 1, i] - result.wrap[rows, k - 1])
+        ax.plot(t, diff, color=f"C{i}", ls={2: "-", 5: "--", 10: ":"}[k], lw=1.2,
+                label=f"guide {k}, tendon {i + 1}")
 ax.set_xlabel("time [s]")
-ax.set_ylabel("wrap [deg]")
-ax.set_title(f"guide {g}: backbone vs per-tendon wrap")
-ax.legend(fontsize=8)
+ax.set_ylabel("exact minus backbone wrap [deg]")
+ax.set_title("per-tendon wrap of set 12")
+ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
 plt.show()
 
 # %%
@@ -125,32 +131,43 @@ plt.show()
 # With ``stick_slip`` on, each guide is a play operator in the log domain: the output tension
 # stays where it was (stick, :math:`\sigma = 0`) until it reaches an edge of the capstan cone
 # :math:`T_{in} e^{\mp\phi}`, where it slides forward (:math:`\sigma = +1`) or back
-# (:math:`\sigma = -1`). ``result.sigma`` has shape (T, N-1, N, 3): guide, set, tendon. Here is
-# the terminal set at the last guide, next to the log tension ratio through that guide and the
-# motion of joint 12 that drives it.
+# (:math:`\sigma = -1`). ``result.sigma`` has shape (T, N-1, N, 3): guide, set, tendon.
+#
+# Here is the terminal set at guide 2 on the first trajectory. This close to the actuator the
+# input of the guide is nearly the actuator-side tension: it steps when the controller pulls on
+# joint 12 (its antagonistic share) and drifts slowly with the pretension. While the input rises
+# the tendon slides forward and loses tension; when it falls the tendon sticks, then slides back,
+# and the output is then *higher* than the input.
 
+traj = rec.trajectories[0]
+rows = np.flatnonzero(rec.trajectory_ids == traj)
+t = rec.time[rows]
+g = 2
 print("sigma shape:", result.sigma.shape)
 sig = result.sigma[rows, g - 1, n - 1, :]  # (T, 3)
-log_ratio = np.log(result.chain[rows, g, n - 1, :] / result.chain[rows, g - 1, n - 1, :])
+t_in = result.chain[rows, g - 1, n - 1, :]  # T[g, 12, :], entering guide g
+t_out = result.chain[rows, g, n - 1, :]  # T[g+1, 12, :], leaving it
 for i in range(3):
     share = {s: float(np.mean(sig[:, i] == s)) for s in (-1, 0, 1)}
     print(f"tendon {i + 1}: reverse slip {share[-1]:.0%}, stick {share[0]:.0%}, forward slip {share[1]:.0%}")
 
-fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True, layout="constrained")
-axes[0].plot(t, np.degrees(result.theta_true[rows, n - 1]), lw=1.5)
-axes[0].set_ylabel("joint 12 [deg]")
-axes[0].legend([r"$\theta_x$", r"$\theta_y$"], fontsize=8)
+fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True, layout="constrained")
 for i in range(3):
-    axes[1].plot(t, log_ratio[:, i], color=f"C{i}", lw=1, label=f"tendon {i + 1}")
-    axes[2].step(t, sig[:, i] + 0.08 * (i - 1), where="post", color=f"C{i}", lw=1)
+    axes[0].plot(t, t_in[:, i], color=f"C{i}", lw=1, ls="--")
+    axes[0].plot(t, t_out[:, i], color=f"C{i}", lw=1.5, label=f"tendon {i + 1}")
+    axes[1].plot(t, np.log(t_out[:, i] / t_in[:, i]), color=f"C{i}", lw=1)
+    axes[2].step(t, sig[:, i] + 0.06 * (i - 1), where="post", color=f"C{i}", lw=1)
+axes[0].set_ylabel("tension [N]")
+axes[0].set_title(f"set 12 at guide {g}, trajectory {traj}: input (dashed) and output (solid)", fontsize=10)
+axes[0].legend(fontsize=8)
+axes[1].axhline(0.0, color="k", lw=0.6)
 axes[1].set_ylabel(r"$\ln(T_{out}/T_{in})$")
-axes[1].legend(fontsize=8)
 axes[2].set_yticks([-1, 0, 1], ["reverse slip", "stick", "forward slip"])
 axes[2].set_xlabel("time [s]")
-axes[2].set_title(f"slip state sigma, set 12 at guide {g} (offset slightly per tendon)", fontsize=10)
+axes[2].set_title("slip state sigma (offset slightly per tendon)", fontsize=10)
 plt.show()
 
 # %%
-# Every motion reversal of joint 12 sends the tendons through a stick phase before they slip the
-# other way: the hysteresis that a static capstan model cannot represent and that the
-# ``capstan-nonsmooth`` baseline and PG-CHTC's temporal residual are there to capture.
+# Every reversal of the input sends a tendon through a stick phase before it slips the other way:
+# the hysteresis that a static capstan model cannot represent, and that the ``capstan-nonsmooth``
+# baseline and PG-CHTC's temporal residual are there to capture.

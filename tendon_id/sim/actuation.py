@@ -53,10 +53,16 @@ class Actuation:
 
         Parameters
         ----------
+        rng : numpy.random.Generator
+            Source of the slow variation.
         theta : ndarray, shape (T, N, 2)
             Commanded joint angles [rad].
         pretension : float
             This trajectory's pretension level ``P`` [N].
+        geometry : RobotGeometry
+            Supplies the tendon azimuths.
+        dt : float
+            Sample period [s].
         """
         psi = tendon_azimuths(geometry)  # (N, 3)
         own_bend = theta[:, :, 0, None] * np.cos(psi) + theta[:, :, 1, None] * np.sin(psi)  # b_j(psi_ji)

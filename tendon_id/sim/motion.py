@@ -43,17 +43,21 @@ class PathBuilder:
 
     @property
     def frames(self) -> int:
+        """Frames built so far."""
         return sum(p.shape[0] for p in self._pieces)
 
     @property
     def last(self) -> NDArray:
+        """A copy of the current pose, shape (N, 2) [rad]."""
         return self._last.copy()
 
     def hold(self, seconds: float) -> None:
+        """Stay at the current pose for ``seconds`` [s]."""
         n = max(1, int(round(seconds / self.dt)))
         self._pieces.append(np.repeat(self._last[None], n, axis=0))
 
     def move_to(self, target: NDArray) -> None:
+        """Minimum-jerk move of all joints to ``target`` (N, 2) [rad], as slow as the speed limit needs."""
         target = np.asarray(target, dtype=float)
         delta = target - self._last
         n = move_frames(float(np.abs(delta).max()), self.v_max, self.dt)

@@ -74,6 +74,7 @@ class ProtocolSettings:
 
     @classmethod
     def from_dict(cls, name: str, d: dict) -> ProtocolSettings:
+        """Build from a recipe's ``[protocols.NAME]`` table; unknown keys are an error."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - known)
         if unknown:

@@ -49,9 +49,11 @@ class FrictionLaw:
 
     Parameters
     ----------
-    A, B : tuple of 3 floats
-        Defaults are the paper's identified values (Section IV-B):
-        ``(0.30, 0.09), (0.32, 0.08), (0.28, 0.10)``.
+    A : tuple of 3 floats
+        Cosine coefficients ``A_i`` [-], one per tendon. Default: the paper's
+        identified ``(0.30, 0.32, 0.28)`` (Section IV-B).
+    B : tuple of 3 floats
+        Offsets ``B_i`` [-]. Default: the paper's ``(0.09, 0.08, 0.10)``.
 
     Notes
     -----
