@@ -137,19 +137,20 @@ def sliding_speed(theta: NDArray, geometry: RobotGeometry, reset: NDArray, dt: f
         Zero where set ``j`` does not pass guide ``k``.
     """
     n = geometry.n_modules
-    psi = tendon_azimuths(geometry)  # (N sets, 3)
-    # The projected bend is linear in theta, so sum the joint angles beyond guide k first:
-    # sum_{m=k+1..j} theta_m = C_j - C_k with C the running sum over joints.
-    rate = _backward_rate(np.cumsum(theta, axis=1), reset, dt)  # (T, N, 2)
-    beyond = rate[:, None, :, :] - rate[:, :-1, None, :]  # (T, N-1 guides k, N sets j, 2)
-    length_rate = beyond[..., 0, None] * np.cos(psi) + beyond[..., 1, None] * np.sin(psi)
-    k = np.arange(1, n)[:, None]
-    j = np.arange(1, n + 1)[None, :]
-    return geometry.hole_radius * np.abs(length_rate) * (k < j)[None, :, :, None]
+    psi = tendon_azimuths(geometry)
+    cum_rate = _backward_rate(np.cumsum(theta, axis=1), reset, dt)
+    out = np.zeros((theta.shape[0], n - 1, n, 3))
+    for g in range(n - 1):
+        out[:, g, g + 1 :] = _sliding_speed_at(cum_rate, g, psi, geometry.hole_radius)
+    return out
 
 
 def _sliding_speed_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) -> NDArray:
-    """:func:`sliding_speed` for one guide (index ``g``) and the sets beyond it, shape (T, N-g-1, 3)."""
+    """:func:`sliding_speed` for one guide (index ``g``) and the sets beyond it, shape (T, N-g-1, 3).
+
+    The projected bend is linear in theta, so the joint-angle rates beyond guide ``k`` are
+    summed first: ``sum_{m=k+1..j} theta_m = C_j - C_k`` with ``C`` the running sum over joints.
+    """
     beyond = cum_rate[:, g + 1 :] - cum_rate[:, g, None]  # sum of theta_m rates, m = k+1..j
     psi_on = psi[g + 1 :]
     return hole_radius * np.abs(beyond[..., 0, None] * np.cos(psi_on) + beyond[..., 1, None] * np.sin(psi_on))

@@ -136,3 +136,21 @@ def test_bad_simulation_requests(recipe):
         simulate(recipe, "posterior-3", effects="magic")
     with pytest.raises(ConfigError, match="frames"):
         simulate(recipe, "posterior-3", frames=1)
+
+
+def test_sliding_speed_is_the_rate_of_path_length_beyond_the_guide():
+    from tendon_id.geometry import RobotGeometry
+    from tendon_id.sim.transmission import sliding_speed
+
+    g = RobotGeometry(n_modules=4, azimuth_step=0.0)
+    theta = np.zeros((5, 4, 2))
+    theta[:, 2, 0] = 0.1 * np.arange(5)  # joint 3 bends towards +x at 1 rad/s (dt = 0.1 s)
+    v = sliding_speed(theta, g, np.array([True, False, False, False, False]), 0.1)
+    assert v.shape == (5, 3, 4, 3)
+    # Tendon 1 (psi = 0) of sets 3 and 4 crosses joint 3 beyond guides 1 and 2: |r * 1 rad/s|.
+    np.testing.assert_allclose(v[1:, :2, 2:, 0], g.hole_radius)
+    # Tendons 2 and 3 sit at +-120 deg: cos(120 deg) = -1/2 of that rate.
+    np.testing.assert_allclose(v[1:, :2, 2:, 1:], 0.5 * g.hole_radius)
+    assert np.all(v[0] == 0)  # first frame of a trajectory: no rate yet
+    assert np.all(v[:, 2] == 0)  # guide 3 lies beyond joint 3: nothing distal of it moves
+    assert np.all(v[:, :, :2] == 0)  # sets 1 and 2 do not cross joint 3
