@@ -99,3 +99,24 @@ def test_bad_recipe_file_exits_2(tmp_path, capsys):
     bad.write_text('name = "r"\n[robot]\nn_modules = 1\n')
     code, _, err = run(capsys, "simulate", "--recipe", str(bad), "--out", str(tmp_path / "x.parquet"))
     assert code == 2 and "n_modules" in err and "r.toml" in err
+
+
+def test_info_reads_a_csv_written_by_a_separate_program(tmp_path, capsys):
+    # Written with the csv module alone, following DESIGN §3, with no sidecar metadata.
+    import csv
+
+    n = 2
+    cols = ["trajectory", "t"] + [f"theta_{k}_{a}" for k in (1, 2) for a in "xy"]
+    cols += [f"tension_act_{j}_{i}" for j in (1, 2) for i in (1, 2, 3)] + [f"tension_joint_{n}_{i}" for i in (1, 2, 3)]
+    path = tmp_path / "bench_log.csv"
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols + ["my_own_signal"])
+        for r in range(30):
+            traj = "run-a" if r < 15 else "run-b"
+            t = 0.1 * (r % 15)
+            w.writerow([traj, f"{t:.1f}", 0.01 * r, -0.02, 0.03, 0.001 * r] + [100 + r] * 6 + [80 + r] * 3 + [r])
+    code, out, err = run(capsys, "info", str(path))
+    assert code == 0, err
+    assert "modules       2" in out and "frames        30" in out and "trajectories  2" in out
+    assert "intermediate joint sides: no" in out
