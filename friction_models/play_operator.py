@@ -99,18 +99,33 @@ def play_operator_edges(
         raise ValueError("lo and hi need a leading time axis with at least one frame")
     if np.any(hi < lo):
         raise ValueError("play operator needs lo <= hi at every frame (phi >= 0)")
-    n = lo.shape[0]
-    r = _as_reset(reset, n)
-    if y0 is not None:
-        r[0] = bool(np.asarray(reset)[0]) if reset is not None else False
-    step_lo = lo.copy()
-    step_hi = hi.copy()
-    # A reset makes the step map constant (y = lo), which cuts the history.
-    step_hi[r] = lo[r]
-    p_lo, p_hi = clamp_prefix(step_lo, step_hi)
-    start = lo[0] if y0 is None else np.broadcast_to(np.asarray(y0, dtype=float), lo.shape[1:])
-    y = np.clip(start, p_lo, p_hi)
+    y = play_output(lo, hi, _as_reset(reset, lo.shape[0]) if y0 is None else _reset_with_y0(reset, lo.shape[0]), y0)
     return PlayResult(log_out=y, sigma=slip_state(y, lo, hi))
+
+
+def _reset_with_y0(reset: ArrayLike | None, n: int) -> NDArray[np.bool_]:
+    r = np.zeros(n, dtype=bool) if reset is None else np.asarray(reset, dtype=bool).copy()
+    if r.shape != (n,):
+        raise ValueError(f"reset must have shape ({n},), got {r.shape}")
+    return r
+
+
+def play_output(lo: NDArray, hi: NDArray, reset: NDArray, y0: ArrayLike | None = None) -> NDArray[np.float64]:
+    """The play operator's output alone, without checks: the inner loop of calibration.
+
+    Parameters
+    ----------
+    lo, hi : ndarray, shape (T, ...)
+        Edges, ``lo <= hi`` (not checked).
+    reset : ndarray of bool, shape (T,)
+        Trajectory starts; ``reset[0]`` must be True unless ``y0`` is given.
+    y0 : array_like, optional
+        Output before frame 0.
+    """
+    step_hi = np.where(reset.reshape((-1,) + (1,) * (lo.ndim - 1)), lo, hi)  # a reset is the constant map y = lo
+    p_lo, p_hi = clamp_prefix(lo, step_hi)
+    start = lo[0] if y0 is None else np.broadcast_to(np.asarray(y0, dtype=float), lo.shape[1:])
+    return np.minimum(np.maximum(start, p_lo), p_hi)
 
 
 def play_operator(

@@ -49,6 +49,11 @@ class Recipe:
         Logging rate [Hz] (paper: 10 Hz).
     v_max_deg_s : float
         Peak joint speed of every move [deg/s] (paper: below 9 deg/s in 99 % of frames).
+    session : {"continuous", "fresh"}
+        ``"continuous"``: the logged trajectories are excerpts of one session, joined
+        by unlogged moves, so each one starts in whatever stick/slip and lag state
+        the robot was left in (as on a real robot).  ``"fresh"``: every trajectory
+        starts from newly pretensioned tendons (forward slip).
     robot : RobotGeometry
     friction : FrictionLaw
         The truth friction law.
@@ -64,6 +69,7 @@ class Recipe:
     seed: int = 0
     sample_rate_hz: float = 10.0
     v_max_deg_s: float = 8.0
+    session: str = "continuous"
     robot: RobotGeometry = field(default_factory=RobotGeometry)
     friction: FrictionLaw = field(default_factory=FrictionLaw)
     effects: Effects = field(default_factory=Effects)
@@ -76,6 +82,8 @@ class Recipe:
             raise ConfigError("sample_rate_hz must be positive")
         if not 0 < self.v_max_deg_s <= 9.0:
             raise ConfigError("v_max_deg_s must lie in (0, 9] deg/s: the paper's data is quasi-static")
+        if self.session not in ("continuous", "fresh"):
+            raise ConfigError(f"session must be 'continuous' or 'fresh', got {self.session!r}")
 
     @property
     def dt(self) -> float:
@@ -102,6 +110,7 @@ class Recipe:
             "seed": self.seed,
             "sample_rate_hz": self.sample_rate_hz,
             "v_max_deg_s": self.v_max_deg_s,
+            "session": self.session,
             "robot": self.robot.to_dict(),
             "friction": {"A": list(self.friction.A), "B": list(self.friction.B)},
             "effects": self.effects.to_dict(),
@@ -118,7 +127,7 @@ class Recipe:
     def from_dict(cls, d: Mapping, *, source: str = "<recipe>") -> Recipe:
         """Build a recipe from the TOML layout (see ``datasets/*.toml``)."""
         d = dict(d)
-        known = {"name", "description", "seed", "sample_rate_hz", "v_max_deg_s", "robot", "friction", "effects", "actuation", "sensors", "protocols", "card"}
+        known = {"name", "description", "seed", "sample_rate_hz", "v_max_deg_s", "session", "robot", "friction", "effects", "actuation", "sensors", "protocols", "card"}
         unknown = sorted(set(d) - known)
         if unknown:
             raise ConfigError(f"{source}: unknown section(s) {unknown}; known: {sorted(known)}")
@@ -139,6 +148,7 @@ class Recipe:
                 seed=int(d.get("seed", 0)),
                 sample_rate_hz=float(d.get("sample_rate_hz", 10.0)),
                 v_max_deg_s=float(d.get("v_max_deg_s", 8.0)),
+                session=str(d.get("session", "continuous")),
                 robot=RobotGeometry.from_dict(d.get("robot")),
                 friction=_build(FrictionLaw, "friction", d.get("friction")),
                 effects=effects,

@@ -13,12 +13,10 @@ from tendon_id.sim.effects import Effects, parse_effect_names
 from tendon_id.sim.protocols import PROTOCOL_NAMES, PROTOCOLS, MotionContext, held_joint_count, held_pose
 from tendon_id.sim.recipe import Recipe
 from tendon_id.sim.sensors import apply_sensor_bias
-from tendon_id.sim.transmission import TransmissionResult, transmit
+from tendon_id.sim.motion import PathBuilder
+from tendon_id.sim.transmission import transmit
 
-#: Frames transmitted per vectorised block; whole trajectories are never split.
-BLOCK_FRAMES = 8192
-
-_STREAM_MOTION, _STREAM_TENSION, _STREAM_NOISE, _STREAM_POSES = range(4)
+_STREAM_MOTION, _STREAM_TENSION, _STREAM_NOISE, _STREAM_POSES, _STREAM_TRANSITION = range(5)
 
 
 @dataclass(frozen=True)
@@ -50,6 +48,24 @@ def _rng(seed: int, protocol: str, trajectory: int, stream: int) -> np.random.Ge
     # One independent stream per (seed, protocol, trajectory, purpose): a trajectory's
     # data does not depend on how many other trajectories are made.
     return np.random.default_rng([int(seed), PROTOCOL_NAMES.index(protocol), int(trajectory), stream])
+
+
+def _transition(rng, theta_from, act_from, theta_to, act_to, v_max: float, dt: float) -> tuple[NDArray, NDArray]:
+    """Unlogged frames between two trajectories: an idle hold, then a speed-limited move.
+
+    Joint angles follow a minimum-jerk move; actuator tensions blend with the same
+    profile from where the last trajectory ended to where the next one starts.
+    """
+    path = PathBuilder(theta_from, v_max, dt)
+    path.hold(rng.uniform(1.0, 5.0))
+    path.move_to(theta_to)
+    path.hold(0.5)
+    theta = path.build(path.frames)
+    span = np.abs(theta - theta_from).max(axis=(1, 2))
+    total = np.abs(theta_to - theta_from).max()
+    s = span / total if total > 0 else np.linspace(0.0, 1.0, theta.shape[0])
+    act = act_from[None] + s[:, None, None] * (act_to - act_from)[None]
+    return theta, act
 
 
 def simulate(
@@ -117,24 +133,32 @@ def simulate(
         acts.append(recipe.actuation.tensions(trng, theta, level, geometry, dt))
         ids.append(f"{protocol}-{ti:04d}")
 
-    theta_true = np.concatenate(thetas)
-    actuator_true = np.concatenate(acts)
-    reset = np.zeros(theta_true.shape[0], dtype=bool)
-    reset[np.cumsum([0] + lengths[:-1])] = True
-
-    # Transmit whole trajectories in blocks, so memory stays bounded on long protocols.
-    blocks: list[TransmissionResult] = []
-    starts = np.flatnonzero(reset)
-    begin = 0
-    while begin < theta_true.shape[0]:
-        end_candidates = starts[starts >= begin + BLOCK_FRAMES]
-        end = int(end_candidates[0]) if end_candidates.size else theta_true.shape[0]
-        sl = slice(begin, end)
-        blocks.append(transmit(theta_true[sl], actuator_true[sl], reset[sl], geometry, recipe.friction, eff, dt))
-        begin = end
-    chain = np.concatenate([b.chain for b in blocks])
-    sigma = np.concatenate([b.sigma for b in blocks])
-    wrap = np.concatenate([b.wrap for b in blocks])
+    # The logged trajectories are excerpts of one session: between them the robot moves on,
+    # unlogged, so the hysteresis and lag states carry over (recipe.session == "continuous").
+    # "fresh" restarts every trajectory from newly pretensioned tendons.
+    pieces_theta, pieces_act, logged, reset_parts = [], [], [], []
+    for ti in range(n_traj):
+        if recipe.session == "continuous":
+            gap_theta, gap_act = _transition(
+                _rng(seed, protocol, ti, _STREAM_TRANSITION), thetas[ti - 1][-1] if ti else thetas[0][0],
+                acts[ti - 1][-1] if ti else acts[0][0], thetas[0 if ti == 0 else ti][0], acts[ti][0], v_max, dt,
+            )
+            pieces_theta.append(gap_theta)
+            pieces_act.append(gap_act)
+            logged.append(np.zeros(len(gap_theta), dtype=bool))
+            reset_parts.append(np.r_[ti == 0, np.zeros(len(gap_theta) - 1, dtype=bool)])
+        pieces_theta.append(thetas[ti])
+        pieces_act.append(acts[ti])
+        logged.append(np.ones(lengths[ti], dtype=bool))
+        reset_parts.append(np.r_[recipe.session == "fresh", np.zeros(lengths[ti] - 1, dtype=bool)])
+    session_theta = np.concatenate(pieces_theta)
+    session_act = np.concatenate(pieces_act)
+    logged = np.concatenate(logged)
+    reset = np.concatenate(reset_parts)
+    tx = transmit(session_theta, session_act, reset, geometry, recipe.friction, eff, dt)
+    chain, sigma, wrap = tx.chain[logged], tx.sigma[logged], tx.wrap[logged]
+    theta_true, actuator_true = session_theta[logged], session_act[logged]
+    session_clock = (np.arange(len(logged)) * dt)[logged]
 
     # Measurement: encoders and load cells.
     nrng = _rng(seed, protocol, 0, _STREAM_NOISE)
@@ -143,8 +167,7 @@ def simulate(
     terminal_true = chain[:, n - 1, n - 1, :]
     t_local = np.concatenate([np.arange(m) * dt for m in lengths])
     if "sensor_bias" in eff:
-        clock = np.arange(theta_true.shape[0]) * dt  # trajectories recorded back to back
-        terminal_true = apply_sensor_bias(terminal_true, clock, eff.get("sensor_bias"))
+        terminal_true = apply_sensor_bias(terminal_true, session_clock, eff.get("sensor_bias"))
     terminal = recipe.sensors.read_tensions(nrng, terminal_true)
     joint_truth = chain[:, np.arange(n), np.arange(n), :].copy()
     joint_truth[:, 0] = actuator[:, 0]  # set 1 has no guide: its load cell reads the joint side

@@ -28,11 +28,11 @@ def test_simulate_twice_gives_identical_bytes_and_info_reports_it(tmp_path, caps
     assert code == 0
     assert "modules       12" in out
     assert "frames        800" in out
-    assert "trajectories  2" in out
+    assert "trajectories  4" in out
     assert "intermediate joint sides: yes (joints 1..11)" in out
     code, out, _ = run(capsys, "info", str(a), "--json")
     s = json.loads(out)
-    assert s["n_modules"] == 12 and s["n_frames"] == 800 and s["n_trajectories"] == 2
+    assert s["n_modules"] == 12 and s["n_frames"] == 800 and s["n_trajectories"] == 4
     assert s["truth"]["intermediate"] is True and s["truth"]["terminal"] is True
 
 

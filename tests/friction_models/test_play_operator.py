@@ -97,3 +97,14 @@ def test_bad_inputs_are_refused():
 
 def test_slip_state_zero_width_cone_is_forward_slip():
     assert slip_state(np.array([1.0]), np.array([1.0]), np.array([1.0]))[0] == 1
+
+
+@pytest.mark.parametrize("n", [65, 1000, 4097])
+def test_blocked_scan_on_long_inputs_equals_the_loop(n):
+    rng = np.random.default_rng(n)
+    x = np.cumsum(rng.normal(size=(n, 2)) * 0.05, axis=0)
+    phi = rng.uniform(0, 0.1, size=(n, 2))
+    reset = rng.uniform(size=n) < 0.01
+    res = play_operator(x, phi, reset=reset)
+    for c in range(2):
+        np.testing.assert_array_equal(res.log_out[:, c], sequential(x[:, c], phi[:, c], reset))

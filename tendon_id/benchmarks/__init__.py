@@ -1,0 +1,9 @@
+"""Benchmarks that reproduce the paper's tables on simulated data (``tendon-id benchmark NAME``).
+
+Each benchmark returns the JSON object of DESIGN §10:
+``{"benchmark", "preset", "rows": [{"method", "protocol", "terminal": M, "joints": M | null}], "seconds"}``.
+"""
+
+from tendon_id.benchmarks.registry import BENCHMARKS, run_benchmark
+
+__all__ = ["BENCHMARKS", "run_benchmark"]

@@ -1,0 +1,29 @@
+"""Names of the benchmarks and how to run one."""
+
+from __future__ import annotations
+
+from tendon_id.benchmarks.tables import table1, table2
+from tendon_id.errors import ConfigError
+
+BENCHMARKS = {"table1": table1, "table2": table2}
+PRESETS = ("fast", "paper")
+
+
+def run_benchmark(name: str, *, preset: str = "fast", **kwargs) -> dict:
+    """Run benchmark ``name`` and return its JSON object (DESIGN §10)."""
+    if name not in BENCHMARKS:
+        raise ConfigError(f"unknown benchmark {name!r}; known: {', '.join(BENCHMARKS)}")
+    if preset not in PRESETS:
+        raise ConfigError(f"unknown preset {preset!r}; known: {', '.join(PRESETS)}")
+    return BENCHMARKS[name](preset=preset, **kwargs)
+
+
+def format_table(result: dict) -> str:
+    """The rows as an aligned text table (terminal and intermediate joints)."""
+    head = f"{'method':22s} {'protocol':15s} {'RMSE [N]':>9s} {'R2':>7s} {'MaxErr':>8s} | {'joints RMSE':>11s} {'R2':>7s}"
+    lines = [f"{result['benchmark']} ({result.get('recipe', '')}, preset {result['preset']}, {result['seconds']:.1f} s)", head, "-" * len(head)]
+    for r in result["rows"]:
+        t, j = r["terminal"], r["joints"]
+        js = f"{j['rmse']:11.3f} {j['r2']:7.3f}" if j else f"{'-':>11s} {'-':>7s}"
+        lines.append(f"{r['method']:22s} {r['protocol']:15s} {t['rmse']:9.3f} {t['r2']:7.3f} {t['max_error']:8.3f} | {js}")
+    return "\n".join(lines)

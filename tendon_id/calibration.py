@@ -1,0 +1,381 @@
+"""Constrained calibration of the capstan family with nlopt (DESIGN §7).
+
+The friction law is fitted by least squares in the log domain on terminal-only
+labels, ``sum_t sum_i (ln T_hat[N, N, i] - ln T[N, N, i])^2``, under
+``mu_i(alpha) >= 0`` on ``[0, pi]``, which for the affine-cosine law is
+``B >= |A|`` (two linear constraints per guide and tendon).
+
+* Smooth models: ``ln T_N`` is linear in ``(A, B)``, so the objective is a
+  quadratic built once from ``X^T X``; nlopt's SLSQP gets its exact gradient.
+* Nonsmooth models (hysteresis, lags, free block parameters): COBYLA, started
+  from the smooth solution and from random feasible points (multi-start).
+
+nlopt is wrapped defensively: tolerances are set, the best feasible point seen
+is kept when nlopt stops on ``RoundoffLimited`` or ``ForcedStop``, feasibility
+is checked after COBYLA (and restored by projection), and callbacks return
+plain floats.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import nlopt
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.errors import TendonIdError
+
+#: Upper bound on any friction coefficient [-]; no tendon–guide pair comes near it.
+MU_MAX = 2.0
+#: Constraint tolerance for feasibility checks.
+CTOL = 1e-9
+
+_STATUS = {
+    nlopt.SUCCESS: "success",
+    nlopt.STOPVAL_REACHED: "stopval_reached",
+    nlopt.FTOL_REACHED: "ftol_reached",
+    nlopt.XTOL_REACHED: "xtol_reached",
+    nlopt.MAXEVAL_REACHED: "maxeval_reached",
+    nlopt.MAXTIME_REACHED: "maxtime_reached",
+}
+
+
+class CalibrationError(TendonIdError, RuntimeError):
+    """The optimiser found no usable point."""
+
+
+@dataclass
+class Outcome:
+    """Result of one :func:`minimize` call."""
+
+    x: NDArray[np.float64]
+    f: float
+    status: str
+    n_eval: int
+    feasible: bool
+
+
+def minimize(
+    fun: Callable[[NDArray], float],
+    x0: NDArray,
+    *,
+    lb: NDArray,
+    ub: NDArray,
+    grad: Callable[[NDArray], NDArray] | None = None,
+    ineq: Callable[[NDArray], NDArray] | None = None,
+    ineq_jac: NDArray | None = None,
+    project: Callable[[NDArray], NDArray] | None = None,
+    xtol_rel: float = 1e-8,
+    ftol_rel: float = 1e-14,
+    maxeval: int = 1000,
+) -> Outcome:
+    """Minimise ``fun`` under ``lb <= x <= ub`` and ``ineq(x) <= 0`` with nlopt.
+
+    Uses ``LD_SLSQP`` when ``grad`` is given (``ineq`` must then be linear with
+    Jacobian ``ineq_jac``), else ``LN_COBYLA``.
+
+    Parameters
+    ----------
+    fun : callable
+        Objective of a 1-D float array.
+    x0, lb, ub : ndarray
+        Start and bounds.
+    grad : callable, optional
+        Gradient of ``fun``.
+    ineq : callable, optional
+        Vector of constraint values, feasible when all ``<= 0``.
+    ineq_jac : ndarray, optional
+        Constant Jacobian of ``ineq`` (linear constraints), for SLSQP.
+    project : callable, optional
+        Maps a slightly infeasible point onto the feasible set.
+    xtol_rel, ftol_rel, maxeval :
+        Stopping rules.
+    """
+    n = len(x0)
+    algorithm = nlopt.LD_SLSQP if grad is not None else nlopt.LN_COBYLA
+    opt = nlopt.opt(algorithm, n)
+    lb = np.asarray(lb, dtype=float)
+    ub = np.asarray(ub, dtype=float)
+    opt.set_lower_bounds(lb)
+    opt.set_upper_bounds(ub)
+    best = {"x": None, "f": np.inf, "n": 0}
+
+    def feasible(x: NDArray) -> bool:
+        if np.any(x < lb - CTOL) or np.any(x > ub + CTOL):
+            return False
+        return ineq is None or bool(np.all(ineq(x) <= CTOL))
+
+    def objective(x, g):
+        x = np.asarray(x, dtype=float)
+        f = float(fun(x))
+        best["n"] += 1
+        if g.size > 0:
+            g[:] = np.asarray(grad(x), dtype=float)
+        if np.isfinite(f) and f < best["f"] and feasible(x):
+            best["x"], best["f"] = x.copy(), f
+        return f if np.isfinite(f) else float(np.finfo(float).max)
+
+    opt.set_min_objective(objective)
+    if ineq is not None:
+        m = len(ineq(np.asarray(x0, dtype=float)))
+
+        def constraints(result, x, g):
+            result[:] = np.asarray(ineq(np.asarray(x, dtype=float)), dtype=float)
+            if g.size > 0:
+                g[:] = ineq_jac
+
+        opt.add_inequality_mconstraint(constraints, [CTOL] * m)
+    opt.set_xtol_rel(xtol_rel)
+    opt.set_ftol_rel(ftol_rel)
+    opt.set_maxeval(int(maxeval))
+    x_start = np.clip(np.asarray(x0, dtype=float), lb, ub)
+    try:
+        x = np.asarray(opt.optimize(x_start), dtype=float)
+        status = _STATUS.get(opt.last_optimize_result(), str(opt.last_optimize_result()))
+    except nlopt.RoundoffLimited:
+        x, status = best["x"], "roundoff_limited"
+    except nlopt.ForcedStop:
+        x, status = best["x"], "forced_stop"
+    if x is None:
+        x = x_start
+    if not feasible(x):  # COBYLA may end marginally outside the constraints
+        if best["x"] is not None:
+            x = best["x"]
+        elif project is not None:
+            x = project(x)
+    f = float(fun(x))
+    if best["x"] is not None and best["f"] < f:
+        x, f = best["x"], best["f"]
+    return Outcome(x=x, f=f, status=status, n_eval=best["n"], feasible=feasible(x))
+
+
+# ---- the capstan law's parameter vector ----------------------------------------------------
+
+
+@dataclass
+class LawLayout:
+    """Per-tendon parameter vector ``[A_1..A_G, B_1..B_G]`` (affine-cosine) or ``[mu_1..mu_G]``."""
+
+    mu_law: str
+    n_groups: int
+
+    @property
+    def size(self) -> int:
+        return self.n_groups * (2 if self.mu_law == "affine-cosine" else 1)
+
+    def split(self, x: NDArray) -> tuple[NDArray, NDArray]:
+        g = self.n_groups
+        if self.mu_law == "affine-cosine":
+            return x[:g], x[g : 2 * g]
+        return np.zeros(g), x[:g]
+
+    def join(self, A: NDArray, B: NDArray) -> NDArray:
+        return np.concatenate([A, B]) if self.mu_law == "affine-cosine" else np.asarray(B, dtype=float)
+
+    def bounds(self) -> tuple[NDArray, NDArray]:
+        g = self.n_groups
+        if self.mu_law == "affine-cosine":
+            return np.r_[np.full(g, -MU_MAX), np.zeros(g)], np.full(2 * g, MU_MAX)
+        return np.zeros(g), np.full(g, MU_MAX)
+
+    def constraint_jacobian(self) -> NDArray | None:
+        """``A - B <= 0`` and ``-A - B <= 0`` per group: ``mu >= 0`` on ``[0, pi]``."""
+        if self.mu_law != "affine-cosine":
+            return None
+        g = self.n_groups
+        eye = np.eye(g)
+        return np.block([[eye, -eye], [-eye, -eye]])
+
+    def project(self, x: NDArray) -> NDArray:
+        A, B = self.split(np.asarray(x, dtype=float))
+        return self.join(np.clip(A, -MU_MAX, MU_MAX), np.clip(np.maximum(B, np.abs(A)), 0.0, MU_MAX))
+
+    def random_feasible(self, rng: np.random.Generator, around: NDArray) -> NDArray:
+        """A random feasible start: ``mu(0)`` scaled by 0.5–1.5 from ``around``, split at random."""
+        A0, B0 = self.split(around)
+        mu0 = np.maximum(A0 + B0, 1e-3) * rng.uniform(0.5, 1.5, size=A0.shape)
+        if self.mu_law != "affine-cosine":
+            return self.join(A0, mu0)
+        share = rng.uniform(-0.45, 0.45, size=A0.shape)  # A = share * mu0 keeps B = mu0 - A >= |A|
+        return self.project(self.join(share * mu0, (1 - share) * mu0))
+
+
+@dataclass
+class CalibrationResult:
+    """Outcome of :func:`calibrate_capstan`.
+
+    Attributes
+    ----------
+    A, B : ndarray, shape (G, 3)
+        Fitted law (``B`` is mu for the constant law, ``A`` zero).
+    block_values : dict
+        Fitted free block parameters.
+    loss : float
+        Mean squared log error per frame and tendon at the optimum.
+    status : list of str
+        nlopt's stop reason per optimisation (per tendon, or joint).
+    n_eval : int
+        Objective evaluations in all.
+    starts : int
+        Starts per optimisation.
+    seconds : float
+    """
+
+    A: NDArray[np.float64]
+    B: NDArray[np.float64]
+    block_values: dict = field(default_factory=dict)
+    loss: float = float("nan")
+    status: list = field(default_factory=list)
+    n_eval: int = 0
+    starts: int = 1
+    seconds: float = 0.0
+
+    def summary(self) -> dict:
+        return {"loss": self.loss, "status": self.status, "n_eval": self.n_eval, "starts": self.starts, "seconds": self.seconds}
+
+
+def linear_design(model, inputs) -> tuple[NDArray, NDArray]:
+    """Design of the smooth model: ``ln T_1 - ln T_N = X theta_i`` per tendon.
+
+    Returns
+    -------
+    X : ndarray, shape (T, p)
+        Columns ``sum_k m alpha cos(alpha)`` then ``sum_k m alpha`` (tied), or one
+        pair per guide (per-guide); only the second half for the constant law.
+    Y : ndarray, shape (T, 3)
+        ``ln T[1, N, i] - ln T[N, N, i]`` from the labels.
+    """
+    wrap = inputs.wrap
+    m = model.exponent_multiplier(inputs)[..., 0]  # (T, N-1)
+    ca, a = m * wrap * np.cos(wrap), m * wrap
+    if model.tying == "tied":
+        ca, a = ca.sum(axis=1, keepdims=True), a.sum(axis=1, keepdims=True)
+    X = np.concatenate([ca, a], axis=1) if model.mu_law == "affine-cosine" else a
+    Y = np.log(inputs.actuator[:, -1]) - np.log(inputs.terminal)
+    return X, Y
+
+
+def _fit_quadratic(X: NDArray, y: NDArray, layout: LawLayout, xtol_rel: float) -> Outcome:
+    """Constrained least squares ``min |y - X x|^2`` with SLSQP on the exact quadratic."""
+    M, b, c = X.T @ X, X.T @ y, float(y @ y)
+    jac = layout.constraint_jacobian()
+    lb, ub = layout.bounds()
+    x0 = layout.project(np.linalg.lstsq(X, y, rcond=None)[0])
+    return minimize(
+        lambda x: float(x @ M @ x - 2.0 * b @ x + c),
+        x0,
+        lb=lb,
+        ub=ub,
+        grad=lambda x: 2.0 * (M @ x - b),
+        ineq=(lambda x: jac @ x) if jac is not None else None,
+        ineq_jac=jac,
+        project=layout.project,
+        xtol_rel=xtol_rel,
+        maxeval=10000,
+    )
+
+
+def calibrate_capstan(model, inputs) -> CalibrationResult:
+    """Fit a :class:`~tendon_id.zoo.capstan.CapstanModel` on terminal labels (see the module docstring)."""
+    t0 = time.perf_counter()
+    n = inputs.n_modules
+    layout = LawLayout(model.mu_law, 1 if model.tying == "tied" else n - 1)
+    X, Y = linear_design(model, inputs)
+    smooth = [_fit_quadratic(X, Y[:, i], layout, model.xtol_rel) for i in range(3)]
+    status = [o.status for o in smooth]
+    n_eval = sum(o.n_eval for o in smooth)
+    theta = np.stack([o.x for o in smooth], axis=1)  # (p, 3)
+    n_obs = inputs.n_frames * 3
+    free = model.free_parameters()
+    values = model._values()
+    log_label = np.log(inputs.terminal)
+    rng = np.random.default_rng(model.seed)
+    jac = layout.constraint_jacobian()
+    lb, ub = layout.bounds()
+
+    if model.is_smooth:
+        loss = sum(o.f for o in smooth) / n_obs
+        starts = 1
+    elif not free:
+        # Tendons are independent: fit each one's law on its own (2G parameters).
+        loss, starts = 0.0, int(model.n_starts)
+        for i in range(3):
+            def sse(x, i=i):
+                A, B = layout.split(x)
+                pred = model.terminal_reading(inputs, A[:, None], B[:, None], values, tendons=np.array([i]))[:, 0]
+                return float(np.sum((np.log(pred) - log_label[:, i]) ** 2))
+
+            x_starts = [theta[:, i]] + [layout.random_feasible(rng, theta[:, i]) for _ in range(starts - 1)]
+            outs = [
+                minimize(sse, x, lb=lb, ub=ub, ineq=(lambda x: jac @ x) if jac is not None else None,
+                         project=layout.project, xtol_rel=model.xtol_rel, maxeval=model.maxeval)
+                for x in x_starts
+            ]
+            best = min(outs, key=lambda o: o.f)
+            theta[:, i] = best.x
+            status.append(best.status)
+            n_eval += sum(o.n_eval for o in outs)
+            loss += best.f
+        loss /= n_obs
+    else:
+        # Free block parameters couple the tendons: one joint fit.
+        p = layout.size
+        names = [(b, q) for b, q, _, _ in free]
+        blo = np.array([bd[0] for _, _, bd, _ in free])
+        bhi = np.array([bd[1] for _, _, bd, _ in free])
+        b0 = np.array([v for *_, v in free])
+
+        def unpack(x):
+            th = x[: 3 * p].reshape(3, p).T
+            vals = {k: dict(v) for k, v in values.items()}
+            for (bn, q), v in zip(names, x[3 * p :]):
+                vals[bn][q] = float(v)
+            A, B = layout.split(th)
+            return A, B, vals
+
+        def sse(x):
+            A, B, vals = unpack(x)
+            pred = model.terminal_reading(inputs, A, B, vals)
+            return float(np.sum((np.log(pred) - log_label) ** 2))
+
+        def ineq(x):
+            if jac is None:
+                return np.zeros(1)
+            th = x[: 3 * p].reshape(3, p)
+            return np.concatenate([jac @ th[i] for i in range(3)])
+
+        def project(x):
+            x = x.copy()
+            for i in range(3):
+                x[i * p : (i + 1) * p] = layout.project(x[i * p : (i + 1) * p])
+            x[3 * p :] = np.clip(x[3 * p :], blo, bhi)
+            return x
+
+        lb_all = np.r_[np.tile(lb, 3), blo]
+        ub_all = np.r_[np.tile(ub, 3), bhi]
+        x0 = np.r_[theta.T.ravel(), b0]
+        starts = int(model.n_starts)
+        x_starts = [x0] + [
+            project(np.r_[np.concatenate([layout.random_feasible(rng, theta[:, i]) for i in range(3)]), rng.uniform(blo, bhi)])
+            for _ in range(starts - 1)
+        ]
+        outs = [minimize(sse, x, lb=lb_all, ub=ub_all, ineq=ineq, project=project, xtol_rel=model.xtol_rel,
+                         maxeval=model.maxeval * 3) for x in x_starts]
+        best = min(outs, key=lambda o: o.f)
+        A, B, vals = unpack(best.x)
+        theta = np.stack([layout.join(A[:, i], B[:, i]) for i in range(3)], axis=1)
+        values = vals
+        status.append(best.status)
+        n_eval += sum(o.n_eval for o in outs)
+        loss = best.f / n_obs
+
+    A = np.stack([layout.split(theta[:, i])[0] for i in range(3)], axis=1)
+    B = np.stack([layout.split(theta[:, i])[1] for i in range(3)], axis=1)
+    if model.mu_law == "affine-cosine" and np.any(B < np.abs(A) - CTOL):
+        raise CalibrationError("calibration ended outside B >= |A|; this is a bug, please report it")
+    block_values = {b: {q: values[b][q] for q, in [(q,) for (bb, q, _, _) in free if bb == b]} for b in {bb for bb, *_ in free}}
+    return CalibrationResult(A=A, B=B, block_values=block_values, loss=float(loss), status=status, n_eval=n_eval,
+                             starts=starts, seconds=time.perf_counter() - t0)

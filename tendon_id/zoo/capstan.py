@@ -1,0 +1,364 @@
+"""Analytic transmission hypotheses: proximal, and the capstan family built from effect blocks.
+
+The capstan family propagates ``ln T`` of every tendon through the guides with
+exponent ``phi = mu_i(alpha_k) alpha_k`` (paper Eqs. (4)–(6)) and the blocks of
+:mod:`tendon_id.zoo.blocks`:
+
+=====================  ==========================  ==========================
+name                   friction law                blocks
+=====================  ==========================  ==========================
+``capstan-simple``     affine-cosine, Eq. (4)      none (beta = sigma = 1)
+``capstan-contact``    affine-cosine               contact gate
+``capstan-nonsmooth``  affine-cosine               contact gate, hysteresis
+``capstan-const-mu``   constant mu (Euler–Eytelwein)  none
+=====================  ==========================  ==========================
+
+``tying="tied"`` shares ``(A_i, B_i)`` over guides (the paper's assumption of
+tribological homogeneity); ``"per-guide"`` gives each guide its own.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.data import Recording
+from tendon_id.errors import ConfigError
+from tendon_id.geometry import RobotGeometry
+from tendon_id.zoo.base import TransmissionModel
+from tendon_id.zoo.blocks import BLOCK_TYPES, Block, block_from_dict
+from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
+
+MU_LAWS = ("affine-cosine", "constant")
+TYINGS = ("tied", "per-guide")
+
+
+def _as_block(b: Block | str | dict) -> Block:
+    if isinstance(b, Block):
+        return b
+    if isinstance(b, str):
+        if b not in BLOCK_TYPES:
+            raise ConfigError(f"unknown block {b!r}; known blocks: {', '.join(BLOCK_TYPES)}")
+        return BLOCK_TYPES[b]()
+    if isinstance(b, dict):
+        return block_from_dict(b)
+    raise ConfigError(f"a block must be a Block, a block name or a dict, got {b!r}")
+
+
+class ProximalModel(TransmissionModel):
+    """No loss: every joint side equals its actuator side (the paper's "Proximal measurement").
+
+    Parameters
+    ----------
+    robot : dict, optional
+        Unused; accepted so that every zoo model takes it.
+    """
+
+    name = "proximal"
+
+    def __init__(self, robot: dict | None = None):
+        self.robot = robot
+
+    def fit(self, data: Recording | Sequence[Recording]) -> ProximalModel:
+        recs = [r.fitting_view() for r in as_recordings(data)]
+        self.n_modules_ = recs[0].n_modules
+        return self
+
+    def predict_chain(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
+        recs = self._check_data(data)
+        act = np.concatenate([r.actuator for r in recs])  # (T, N, 3)
+        n = act.shape[1]
+        chain = np.broadcast_to(act[:, None], (act.shape[0], n, n, 3)).copy()
+        chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan  # k > j is off the path
+        return chain
+
+    def _state(self):
+        return {"n_modules": self.n_modules_}, {}
+
+    def _restore(self, state, arrays):
+        self.n_modules_ = int(state["n_modules"])
+
+
+class CapstanModel(TransmissionModel):
+    """Capstan transmission ``T[k+1] = exp(-phi) T[k]`` with composable effect blocks.
+
+    Parameters
+    ----------
+    mu_law : {"affine-cosine", "constant"}
+        ``mu_i(alpha) = A_i cos(alpha) + B_i`` (paper Eq. (4)) or a constant ``mu_i``.
+    blocks : sequence of Block or str
+        Effect blocks (:mod:`tendon_id.zoo.blocks`), e.g. ``("contact", "hysteresis")``.
+    tying : {"tied", "per-guide"}
+        Share the law over guides, or give each guide its own.
+    robot : dict, optional
+        Robot description; default: from the data's metadata.
+    n_starts : int
+        Optimiser starts for nonsmooth models (the first is the smooth solution).
+    seed : int
+        Seed of the extra starts.
+    xtol_rel : float
+        Relative parameter tolerance of nlopt.
+    maxeval : int
+        Objective evaluations per start (nonsmooth models).
+
+    Attributes
+    ----------
+    A_, B_ : ndarray, shape (G, 3)
+        Fitted law, ``G = 1`` (tied) or ``N - 1`` (per-guide); ``A_`` is zero for
+        the constant law and ``B_`` is then ``mu``.
+    block_values_ : dict
+        Fitted block parameters, ``{block name: {param: value}}``.
+    calibration_ : dict
+        Summary of the calibration (loss, optimiser status, evaluations, seconds).
+    geometry_ : RobotGeometry
+    n_modules_ : int
+    """
+
+    name = "capstan"
+
+    def __init__(
+        self,
+        mu_law: str = "affine-cosine",
+        blocks: Sequence[Block | str] = (),
+        tying: str = "tied",
+        robot: dict | None = None,
+        n_starts: int = 3,
+        seed: int = 0,
+        xtol_rel: float = 1e-7,
+        maxeval: int = 600,
+    ):
+        self.mu_law = mu_law
+        self.blocks = blocks
+        self.tying = tying
+        self.robot = robot
+        self.n_starts = n_starts
+        self.seed = seed
+        self.xtol_rel = xtol_rel
+        self.maxeval = maxeval
+
+    # ---- structure -----------------------------------------------------------
+    def _validated(self) -> tuple[Block, ...]:
+        if self.mu_law not in MU_LAWS:
+            raise ConfigError(f"mu_law must be one of {MU_LAWS}, got {self.mu_law!r}")
+        if self.tying not in TYINGS:
+            raise ConfigError(f"tying must be one of {TYINGS}, got {self.tying!r}")
+        if int(self.n_starts) < 1 or int(self.maxeval) < 10:
+            raise ConfigError("n_starts must be >= 1 and maxeval >= 10")
+        blocks = tuple(_as_block(b) for b in self.blocks)
+        if sum(b.stage == "propagate" for b in blocks) > 1:
+            raise ConfigError("a model can have at most one propagation block (hysteresis)")
+        names = [b.name for b in blocks]
+        if len(set(names)) != len(names):
+            raise ConfigError(f"each block may appear once, got {names}")
+        return blocks
+
+    @property
+    def block_objects(self) -> tuple[Block, ...]:
+        """The blocks as objects (``blocks`` may hold names)."""
+        return self._validated()
+
+    def with_blocks(self, *extra: Block | str) -> CapstanModel:
+        """An unfitted copy of this model with ``extra`` blocks added (the diagnosis uses this)."""
+        params = {**self.get_params(), "mu_law": self.mu_law}
+        params["blocks"] = tuple(self.block_objects) + tuple(_as_block(b) for b in extra)
+        return CapstanModel(**params)
+
+    def free_parameters(self) -> list[tuple[str, str, tuple[float, float], float]]:
+        """Block parameters calibrated with the law: ``(block, param, bounds, initial)``."""
+        out = []
+        for b in self.block_objects:
+            if b.fixed:
+                continue
+            for p in b.param_names:
+                out.append((b.name, p, tuple(b.bounds[p]), float(getattr(b, p))))
+        return out
+
+    @property
+    def is_smooth(self) -> bool:
+        """True when ``ln T_N`` is linear in the law and no block has free parameters."""
+        return not any(b.stage in ("propagate", "guide_output") for b in self.block_objects) and not self.free_parameters()
+
+    # ---- forward model -------------------------------------------------------------
+    def _values(self, overrides: dict | None = None) -> dict[str, dict[str, float]]:
+        vals = {b.name: b.initial() for b in self.block_objects}
+        for name, d in (overrides or {}).items():
+            vals.setdefault(name, {}).update(d)
+        return vals
+
+    def exponent_multiplier(self, inputs: TransmissionInputs, values: dict | None = None) -> NDArray:
+        """Product of the exponent blocks' factors, shape (T, N-1, 1) (1 where there are none)."""
+        values = self._values() if values is None else values
+        m = np.ones(inputs.wrap.shape + (1,))
+        for b in self.block_objects:
+            if b.stage == "exponent":
+                m = b.exponent(m, inputs.wrap, inputs, values.get(b.name, {}))
+        return m
+
+    def exponent(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None) -> NDArray:
+        """Capstan exponent ``phi[t, k, i]`` (paper Eq. (5) with the blocks), shape (T, N-1, m).
+
+        ``A``, ``B`` have shape (G, m) for ``m`` tendons; the constant law uses ``B`` as mu.
+        """
+        wrap = inputs.wrap[..., None]  # (T, N-1, 1)
+        mu = B[None] if self.mu_law == "constant" else A[None] * np.cos(wrap) + B[None]
+        return mu * wrap * self.exponent_multiplier(inputs, values)
+
+    def propagate(
+        self,
+        inputs: TransmissionInputs,
+        A: NDArray,
+        B: NDArray,
+        values: dict | None = None,
+        *,
+        sets: NDArray | None = None,
+        tendons: NDArray | None = None,
+        keep_chain: bool = True,
+    ) -> NDArray:
+        """Propagate ``ln T`` through the guides (paper Algorithm 1 with analytic ratios).
+
+        Parameters
+        ----------
+        inputs : TransmissionInputs
+        A, B : ndarray, shape (G, m)
+            Law per guide (G = 1 tied) for the ``m`` tendons in ``tendons``.
+        values : dict, optional
+            Block parameters.
+        sets : ndarray of int, optional
+            0-based set indices to propagate (default all).
+        tendons : ndarray of int, optional
+            0-based tendon indices (default all three).
+        keep_chain : bool
+            Return the whole chain ``ln T[k, j, i]``, shape (T, N, S, m) with NaN
+            off the path; else only the joint sides ``ln T[j, j, i]``, shape (T, S, m).
+        """
+        values = self._values() if values is None else values
+        n = inputs.n_modules
+        sets = np.arange(n) if sets is None else np.asarray(sets)
+        tendons = np.arange(3) if tendons is None else np.asarray(tendons)
+        phi = self.exponent(inputs, A, B, values)  # (T, N-1, m)
+        log_t = np.log(inputs.actuator[:, sets][:, :, tendons])  # (T, S, m)
+        chain = np.full((inputs.n_frames, n) + log_t.shape[1:], np.nan) if keep_chain else None
+        if keep_chain:
+            chain[:, 0] = log_t
+        propagate = next((b for b in self.block_objects if b.stage == "propagate"), None)
+        outputs = [b for b in self.block_objects if b.stage == "guide_output"]
+        for g in range(n - 1):
+            active = sets > g  # set j (index j-1) passes guide k = g + 1 iff k < j
+            if not active.any():
+                break
+            x = log_t[:, active]
+            ph = np.broadcast_to(phi[:, g, None, :], x.shape)
+            y = propagate.propagate(x, ph, inputs) if propagate is not None else x - ph
+            for b in outputs:
+                y = b.guide_output(y, inputs, values.get(b.name, {}))
+            log_t[:, active] = y
+            if keep_chain:
+                chain[:, g + 1, active] = y
+        return chain if keep_chain else log_t
+
+    def terminal_reading(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None, tendons: NDArray | None = None) -> NDArray:
+        """Predicted terminal load-cell reading [N], shape (T, m) (the sensor blocks applied)."""
+        values = self._values() if values is None else values
+        n = inputs.n_modules
+        t = np.exp(self.propagate(inputs, A, B, values, sets=np.array([n - 1]), tendons=tendons, keep_chain=False)[:, 0])
+        for b in self.block_objects:
+            if b.stage == "sensor":
+                t = b.sensor(t, inputs, values.get(b.name, {}))
+        return t
+
+    # ---- estimator API ---------------------------------------------------------------
+    def fit(self, data: Recording | Sequence[Recording]) -> CapstanModel:
+        """Calibrate the law (and free block parameters) on terminal-only labels with nlopt.
+
+        Intermediate joint-side truth is removed before anything is read.
+        """
+        from tendon_id.calibration import calibrate_capstan
+
+        self._validated()
+        recs = [r.fitting_view() for r in as_recordings(data)]
+        inputs = TransmissionInputs.from_recordings(recs, self.robot)
+        result = calibrate_capstan(self, inputs)
+        self.A_, self.B_ = result.A, result.B
+        self.block_values_ = result.block_values
+        self.calibration_ = result.summary()
+        self.geometry_ = inputs.geometry
+        self.n_modules_ = inputs.n_modules
+        return self
+
+    def _inputs(self, data) -> TransmissionInputs:
+        recs = self._check_data(data)
+        return TransmissionInputs.from_recordings(recs, self.geometry_)
+
+    def _fitted_values(self) -> dict:
+        return self._values(self.block_values_)
+
+    def predict_chain(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
+        """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``."""
+        inputs = self._inputs(data)
+        return np.exp(self.propagate(inputs, self.A_, self.B_, self._fitted_values()))
+
+    def predict(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
+        inputs = self._inputs(data)
+        return np.exp(self.propagate(inputs, self.A_, self.B_, self._fitted_values(), keep_chain=False))
+
+    def predict_terminal(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
+        return self.terminal_reading(self._inputs(data), self.A_, self.B_, self._fitted_values())
+
+    @property
+    def mu0_(self) -> NDArray[np.float64]:
+        """``mu_i(0) = A_i + B_i``, shape (G, 3): what terminal data pins down best."""
+        self._check_fitted()
+        return self.A_ + self.B_
+
+    # ---- persistence -------------------------------------------------------------------
+    def _json_params(self) -> dict:
+        p = super()._json_params()
+        p["blocks"] = [b.to_dict() for b in self.block_objects]
+        return p
+
+    @classmethod
+    def _from_params(cls, params: dict) -> CapstanModel:
+        params = dict(params)
+        params["blocks"] = tuple(block_from_dict(b) for b in params.get("blocks", []))
+        return cls(**params)
+
+    def _state(self):
+        state = {
+            "n_modules": self.n_modules_,
+            "geometry": self.geometry_.to_dict(),
+            "block_values": self.block_values_,
+            "calibration": self.calibration_,
+        }
+        return state, {"A": self.A_, "B": self.B_}
+
+    def _restore(self, state, arrays):
+        self.n_modules_ = int(state["n_modules"])
+        self.geometry_ = RobotGeometry.from_dict(state["geometry"])
+        self.block_values_ = {k: dict(v) for k, v in state.get("block_values", {}).items()}
+        self.calibration_ = state.get("calibration", {})
+        self.A_ = np.asarray(arrays["A"], dtype=float)
+        self.B_ = np.asarray(arrays["B"], dtype=float)
+
+
+def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[CapstanModel]:
+    """A registered capstan variant: fixed law and blocks, everything else settable."""
+
+    def __init__(self, tying: str = "tied", robot: dict | None = None, n_starts: int = 3, seed: int = 0,
+                 xtol_rel: float = 1e-7, maxeval: int = 600, blocks: Sequence[Block | str] = blocks):
+        CapstanModel.__init__(self, mu_law=mu_law, blocks=blocks, tying=tying, robot=robot, n_starts=n_starts,
+                              seed=seed, xtol_rel=xtol_rel, maxeval=maxeval)
+
+    cls = type(name.title().replace("-", ""), (CapstanModel,), {"name": name, "__init__": __init__, "__doc__": doc})
+    cls.__module__ = __name__
+    return cls
+
+
+CapstanSimple = _preset("capstan-simple", "affine-cosine", (), "Affine-cosine capstan with beta = sigma = 1 (paper Table I, ref. [5]).")
+CapstanContact = _preset("capstan-contact", "affine-cosine", ("contact",), "Affine-cosine capstan with the geometric contact gate (paper ref. [10]).")
+CapstanNonsmooth = _preset(
+    "capstan-nonsmooth", "affine-cosine", ("contact", "hysteresis"), "Contact gate plus stick/slip hysteresis (paper ref. [12]): the paper's physics baseline."
+)
+CapstanConstMu = _preset("capstan-const-mu", "constant", (), "The classic constant-mu Euler–Eytelwein capstan.")

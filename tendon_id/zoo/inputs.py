@@ -1,0 +1,118 @@
+"""What a transmission model reads from recordings: angles, actuator tensions, labels, geometry."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.data import Recording
+from tendon_id.errors import ConfigError
+from tendon_id.geometry import RobotGeometry, backbone_wrap
+
+
+def as_recordings(data: Recording | Sequence[Recording]) -> list[Recording]:
+    """A list of recordings from one recording or a sequence of them."""
+    recs = [data] if isinstance(data, Recording) else list(data)
+    if not recs or not all(isinstance(r, Recording) for r in recs):
+        raise ConfigError("expected a Recording or a non-empty sequence of Recordings")
+    return recs
+
+
+def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None = None) -> RobotGeometry:
+    """The robot description: an explicit one, else the recordings' metadata, else the defaults.
+
+    Raises
+    ------
+    ConfigError
+        If recordings disagree on the robot or the module count.
+    """
+    n = recordings[0].n_modules
+    if any(r.n_modules != n for r in recordings):
+        raise ConfigError("all recordings must have the same number of modules")
+    if isinstance(robot, RobotGeometry):
+        geometry = robot
+    elif robot is not None:
+        geometry = RobotGeometry.from_dict({**RobotGeometry(n_modules=n).to_dict(), **dict(robot)})
+    else:
+        metas = [r.meta.get("robot") for r in recordings]
+        if any(m != metas[0] for m in metas):
+            raise ConfigError("recordings come from different robots (their 'robot' metadata differ); pass robot= explicitly")
+        geometry = RobotGeometry.from_dict(metas[0]) if metas[0] else RobotGeometry(n_modules=n)
+    if geometry.n_modules != n:
+        raise ConfigError(f"the robot has {geometry.n_modules} modules but the data has {n}")
+    return geometry
+
+
+@dataclass(frozen=True)
+class TransmissionInputs:
+    """Everything an analytic transmission model reads, as arrays over all frames.
+
+    Attributes
+    ----------
+    angles : ndarray, shape (T, N, 2)
+        Joint angles [rad].
+    actuator : ndarray, shape (T, N, 3)
+        Actuator-side tensions ``T[1, j, i]`` [N].
+    terminal : ndarray, shape (T, 3)
+        Terminal joint-side labels ``T[N, N, i]`` [N].
+    reset : ndarray of bool, shape (T,)
+        First frame of each trajectory.
+    clock : ndarray, shape (T,)
+        Time since the start of the session [s] (trajectories back to back).
+    dt : float
+        Sample period [s].
+    geometry : RobotGeometry
+    """
+
+    angles: NDArray[np.float64]
+    actuator: NDArray[np.float64]
+    terminal: NDArray[np.float64]
+    reset: NDArray[np.bool_]
+    clock: NDArray[np.float64]
+    dt: float
+    geometry: RobotGeometry = field(compare=False)
+
+    @property
+    def n_frames(self) -> int:
+        return self.angles.shape[0]
+
+    @property
+    def n_modules(self) -> int:
+        return self.angles.shape[1]
+
+    @cached_property
+    def wrap(self) -> NDArray[np.float64]:
+        """Backbone wrap per guide, paper Eq. (3), shape (T, N-1) [rad]."""
+        return backbone_wrap(self.angles, self.geometry.alpha_0)
+
+    @classmethod
+    def from_recordings(cls, data: Recording | Sequence[Recording], robot: dict | RobotGeometry | None = None) -> TransmissionInputs:
+        """Stack recordings (trajectories kept apart by ``reset``).
+
+        Only angles, actuator-side tensions and the terminal labels are read, never
+        intermediate joint-side truth.
+        """
+        recs = as_recordings(data)
+        geometry = robot_of(recs, robot)
+        dts = {round(r.dt, 9) for r in recs}
+        if len(dts) > 1:
+            raise ConfigError(f"recordings have different sample rates: {sorted(1 / d for d in dts)} Hz")
+        dt = recs[0].dt
+        clocks, offset = [], 0.0
+        for r in recs:
+            n = r.n_frames
+            clocks.append(offset + np.arange(n) * dt)
+            offset += n * dt
+        return cls(
+            angles=np.concatenate([r.angles for r in recs]),
+            actuator=np.concatenate([r.actuator for r in recs]),
+            terminal=np.concatenate([r.terminal for r in recs]),
+            reset=np.concatenate([r.trajectory_starts for r in recs]),
+            clock=np.concatenate(clocks),
+            dt=dt,
+            geometry=geometry,
+        )
