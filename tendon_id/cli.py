@@ -61,6 +61,118 @@ def info(
     typer.echo(format_summary(summary, str(file)))
 
 
+def _parse_sets(items: list[str] | None) -> dict:
+    """``key=value`` settings; values are read as JSON (numbers, lists, true/false) or else as text."""
+    out = {}
+    for item in items or []:
+        if "=" not in item:
+            raise TendonIdError(f"--set {item!r}: expected key=value")
+        key, value = item.split("=", 1)
+        try:
+            out[key.strip()] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key.strip()] = value
+    return out
+
+
+def _read_all(paths: list[Path]):
+    from tendon_id.data import Recording
+
+    if not paths:
+        raise TendonIdError("--data: give at least one recording")
+    return [Recording.read(p) for p in paths]
+
+
+def _write_json(path: Path, obj: dict) -> None:
+    from tendon_id.atomic import write_text_atomic
+
+    write_text_atomic(path, json.dumps(obj, indent=2, default=float) + "\n")
+
+
+@app.command()
+def fit(
+    model: str = typer.Argument(..., help="Zoo model name (see 'tendon-id fit --list')."),
+    data: list[Path] = typer.Option(None, "--data", help="Recording(s) to fit on; repeat for several."),
+    set_: list[str] = typer.Option(None, "--set", help="Model setting key=value (JSON values); repeatable."),
+    out: Path = typer.Option(..., "--out", help="Folder for the fitted model (model.json + arrays.npz)."),
+) -> None:
+    """Fit a zoo model on terminal-only labels and save it."""
+    from tendon_id import zoo
+
+    m = zoo.make(model, **_parse_sets(set_))
+    recs = _read_all(data)
+    m.fit(recs)
+    m.save(out)
+    frames = sum(r.n_frames for r in recs)
+    typer.echo(f"fitted {model} on {frames} frames; saved to {out}")
+
+
+@app.command()
+def evaluate(
+    model: Path = typer.Option(..., "--model", help="A folder written by 'tendon-id fit'."),
+    data: Path = typer.Option(..., "--data", help="Recording to evaluate on."),
+    as_json: bool = typer.Option(False, "--json", help="Print the metrics as JSON (DESIGN §10 shape)."),
+) -> None:
+    """Metrics of a fitted model on a recording: terminal joint, and every joint where truth exists."""
+    from tendon_id import zoo
+    from tendon_id.data import Recording
+
+    m = zoo.load(model)
+    rec = Recording.read(data)
+    score = m.score(rec)
+    result = {"model": m.name, "frames": rec.n_frames, **score}
+    if as_json:
+        typer.echo(json.dumps(result, indent=2, default=float))
+        return
+    t = score["terminal"]
+    typer.echo(f"{m.name} on {data} ({rec.n_frames} frames)")
+    typer.echo(f"terminal joint     RMSE {t['rmse']:8.3f} N   R2 {t['r2']:7.3f}   max error {t['max_error']:8.3f} N")
+    if score["joints"]:
+        for j, mj in enumerate(score["joints"]["per_joint"], start=1):
+            typer.echo(f"joint {j:2d}           RMSE {mj['rmse']:8.3f} N   R2 {mj['r2']:7.3f}   max error {mj['max_error']:8.3f} N")
+        o = score["joints"]["overall"]
+        if o:
+            typer.echo(f"intermediate 2..{rec.n_modules - 1}  RMSE {o['rmse']:8.3f} N   R2 {o['r2']:7.3f}")
+
+
+@app.command()
+def calibrate(
+    data: list[Path] = typer.Option(None, "--data", help="Recording(s) with terminal labels; repeat for several."),
+    model: str = typer.Option("capstan-nonsmooth", "--model", help="A capstan-family model."),
+    tying: str = typer.Option("tied", "--tying", help="tied or per-guide."),
+    posterior: bool = typer.Option(False, "--posterior", help="Also sample the emcee posterior."),
+    out: Path = typer.Option(..., "--out", help="Output folder: calibration.json (+ posterior.json, corner.png)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the multi-start and of the sampler."),
+) -> None:
+    """Constrained calibration of (A_i, B_i) with nlopt, and optionally their posterior with emcee."""
+    from tendon_id.calibration_report import run_calibration
+
+    written = run_calibration(_read_all(data), model=model, tying=tying, posterior=posterior, out=out, seed=seed)
+    for path in written:
+        typer.echo(f"wrote {path}")
+
+
+@app.command()
+def benchmark(
+    name: str = typer.Argument(..., help="table1, table2 or recovery."),
+    preset: str = typer.Option("fast", "--preset", help="fast or paper (size of the learned models)."),
+    recipe: Optional[str] = typer.Option(None, "--recipe", help="Recipe (default: the benchmark's own)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the data split."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the result as JSON (DESIGN §10 shape)."),
+) -> None:
+    """Reproduce a table of the paper on simulated data."""
+    from tendon_id.benchmarks.registry import format_table, run_benchmark
+
+    kwargs = {"seed": seed} if name != "recovery" else {}
+    if recipe:
+        kwargs["recipe"] = recipe
+    result = run_benchmark(name, preset=preset, **kwargs)
+    typer.echo(format_table(result))
+    if json_out:
+        _write_json(json_out, result)
+        typer.echo(f"wrote {json_out}")
+
+
 @app.command()
 def demo(
     out: Path = typer.Option(Path("out"), "--out", help="Folder for the demo's report."),

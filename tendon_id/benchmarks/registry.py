@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+from tendon_id.benchmarks.recovery import format_recovery, recovery
 from tendon_id.benchmarks.tables import table1, table2
 from tendon_id.errors import ConfigError
 
-BENCHMARKS = {"table1": table1, "table2": table2}
+BENCHMARKS = {"table1": table1, "table2": table2, "recovery": recovery}
 PRESETS = ("fast", "paper")
 
 
@@ -20,6 +21,8 @@ def run_benchmark(name: str, *, preset: str = "fast", **kwargs) -> dict:
 
 def format_table(result: dict) -> str:
     """The rows as an aligned text table (terminal and intermediate joints)."""
+    if result["benchmark"] == "recovery":
+        return format_recovery(result)
     head = f"{'method':22s} {'protocol':15s} {'RMSE [N]':>9s} {'R2':>7s} {'MaxErr':>8s} | {'joints RMSE':>11s} {'R2':>7s}"
     lines = [f"{result['benchmark']} ({result.get('recipe', '')}, preset {result['preset']}, {result['seconds']:.1f} s)", head, "-" * len(head)]
     for r in result["rows"]:

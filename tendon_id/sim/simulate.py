@@ -183,6 +183,7 @@ def simulate(
         "effects": list(eff.enabled),
         "effect_params": eff.to_dict()["params"],
         "friction_truth": {"A": list(recipe.friction.A), "B": list(recipe.friction.B)},
+        "sensors": {"noise_n": recipe.sensors.noise_n, "range_n": recipe.sensors.range_n, "encoder_bits": recipe.sensors.encoder_bits},
         "seed": seed,
     }
     trajectory = np.repeat(np.array(ids, dtype=object), lengths)

@@ -127,8 +127,8 @@ class CapstanModel(TransmissionModel):
         robot: dict | None = None,
         n_starts: int = 3,
         seed: int = 0,
-        xtol_rel: float = 1e-7,
-        maxeval: int = 600,
+        xtol_rel: float = 1e-5,
+        maxeval: int = 400,
     ):
         self.mu_law = mu_law
         self.blocks = blocks
@@ -197,14 +197,17 @@ class CapstanModel(TransmissionModel):
                 m = b.exponent(m, inputs.wrap, inputs, values.get(b.name, {}))
         return m
 
-    def exponent(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None) -> NDArray:
+    def exponent(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None,
+                 multiplier: NDArray | None = None) -> NDArray:
         """Capstan exponent ``phi[t, k, i]`` (paper Eq. (5) with the blocks), shape (T, N-1, m).
 
         ``A``, ``B`` have shape (G, m) for ``m`` tendons; the constant law uses ``B`` as mu.
+        ``multiplier`` may pass a precomputed :meth:`exponent_multiplier` times the wrap.
         """
-        wrap = inputs.wrap[..., None]  # (T, N-1, 1)
-        mu = B[None] if self.mu_law == "constant" else A[None] * np.cos(wrap) + B[None]
-        return mu * wrap * self.exponent_multiplier(inputs, values)
+        scaled = inputs.wrap[..., None] * self.exponent_multiplier(inputs, values) if multiplier is None else multiplier
+        if self.mu_law == "constant":
+            return B[None] * scaled
+        return (A[None] * inputs.cos_wrap[..., None] + B[None]) * scaled
 
     def propagate(
         self,
@@ -216,6 +219,7 @@ class CapstanModel(TransmissionModel):
         sets: NDArray | None = None,
         tendons: NDArray | None = None,
         keep_chain: bool = True,
+        multiplier: NDArray | None = None,
     ) -> NDArray:
         """Propagate ``ln T`` through the guides (paper Algorithm 1 with analytic ratios).
 
@@ -233,12 +237,14 @@ class CapstanModel(TransmissionModel):
         keep_chain : bool
             Return the whole chain ``ln T[k, j, i]``, shape (T, N, S, m) with NaN
             off the path; else only the joint sides ``ln T[j, j, i]``, shape (T, S, m).
+        multiplier : ndarray, optional
+            Precomputed wrap times exponent multiplier, shape (T, N-1, 1).
         """
         values = self._values() if values is None else values
         n = inputs.n_modules
         sets = np.arange(n) if sets is None else np.asarray(sets)
         tendons = np.arange(3) if tendons is None else np.asarray(tendons)
-        phi = self.exponent(inputs, A, B, values)  # (T, N-1, m)
+        phi = self.exponent(inputs, A, B, values, multiplier)  # (T, N-1, m)
         log_t = np.log(inputs.actuator[:, sets][:, :, tendons])  # (T, S, m)
         chain = np.full((inputs.n_frames, n) + log_t.shape[1:], np.nan) if keep_chain else None
         if keep_chain:
@@ -259,11 +265,13 @@ class CapstanModel(TransmissionModel):
                 chain[:, g + 1, active] = y
         return chain if keep_chain else log_t
 
-    def terminal_reading(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None, tendons: NDArray | None = None) -> NDArray:
+    def terminal_reading(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None,
+                         tendons: NDArray | None = None, multiplier: NDArray | None = None) -> NDArray:
         """Predicted terminal load-cell reading [N], shape (T, m) (the sensor blocks applied)."""
         values = self._values() if values is None else values
         n = inputs.n_modules
-        t = np.exp(self.propagate(inputs, A, B, values, sets=np.array([n - 1]), tendons=tendons, keep_chain=False)[:, 0])
+        t = np.exp(self.propagate(inputs, A, B, values, sets=np.array([n - 1]), tendons=tendons, keep_chain=False,
+                                  multiplier=multiplier)[:, 0])
         for b in self.block_objects:
             if b.stage == "sensor":
                 t = b.sensor(t, inputs, values.get(b.name, {}))
@@ -298,11 +306,15 @@ class CapstanModel(TransmissionModel):
     def predict_chain(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``."""
         inputs = self._inputs(data)
-        return np.exp(self.propagate(inputs, self.A_, self.B_, self._fitted_values()))
+        chain = np.exp(self.propagate(inputs, self.A_, self.B_, self._fitted_values()))
+        chain[:, 0] = inputs.actuator  # the actuator side exactly, not exp(log(.))
+        return chain
 
     def predict(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         inputs = self._inputs(data)
-        return np.exp(self.propagate(inputs, self.A_, self.B_, self._fitted_values(), keep_chain=False))
+        pred = np.exp(self.propagate(inputs, self.A_, self.B_, self._fitted_values(), keep_chain=False))
+        pred[:, 0] = inputs.actuator[:, 0]  # set 1 passes no guide
+        return pred
 
     def predict_terminal(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         return self.terminal_reading(self._inputs(data), self.A_, self.B_, self._fitted_values())
@@ -347,7 +359,7 @@ def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[C
     """A registered capstan variant: fixed law and blocks, everything else settable."""
 
     def __init__(self, tying: str = "tied", robot: dict | None = None, n_starts: int = 3, seed: int = 0,
-                 xtol_rel: float = 1e-7, maxeval: int = 600, blocks: Sequence[Block | str] = blocks):
+                 xtol_rel: float = 1e-5, maxeval: int = 400, blocks: Sequence[Block | str] = blocks):
         CapstanModel.__init__(self, mu_law=mu_law, blocks=blocks, tying=tying, robot=robot, n_starts=n_starts,
                               seed=seed, xtol_rel=xtol_rel, maxeval=maxeval)
 

@@ -89,6 +89,11 @@ class TransmissionInputs:
         """Backbone wrap per guide, paper Eq. (3), shape (T, N-1) [rad]."""
         return backbone_wrap(self.angles, self.geometry.alpha_0)
 
+    @cached_property
+    def cos_wrap(self) -> NDArray[np.float64]:
+        """``cos(alpha_k)``, shape (T, N-1) (cached: calibration evaluates it thousands of times)."""
+        return np.cos(self.wrap)
+
     @classmethod
     def from_recordings(cls, data: Recording | Sequence[Recording], robot: dict | RobotGeometry | None = None) -> TransmissionInputs:
         """Stack recordings (trajectories kept apart by ``reset``).

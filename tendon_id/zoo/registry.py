@@ -34,7 +34,8 @@ def model_class(name: str) -> type[TransmissionModel]:
 def make(name: str, **params) -> TransmissionModel:
     """Build an unfitted model; ``params`` are its settings (see its class)."""
     cls = model_class(name)
-    try:
-        return cls(**params)
-    except TypeError as exc:
-        raise ConfigError(f"bad settings for model {name!r}: {exc}") from None
+    known = cls._param_names()
+    unknown = sorted(set(params) - set(known))
+    if unknown:
+        raise ConfigError(f"model {name!r} has no setting(s) {unknown}; its settings: {', '.join(known)}")
+    return cls(**params)

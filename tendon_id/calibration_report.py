@@ -1,0 +1,56 @@
+"""``tendon-id calibrate``: the calibration and posterior files of DESIGN §10."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from tendon_id.atomic import atomic_write, write_text_atomic
+from tendon_id.data import Recording
+from tendon_id.errors import ConfigError
+from tendon_id.zoo import CapstanModel, make
+
+
+def calibration_json(model: CapstanModel, recordings: Sequence[Recording]) -> dict:
+    """``{"model", "tying", "A", "B", "mu0", "terminal": M}``; tied: 3 numbers each, per-guide: N-1 lists of 3."""
+    def shape(a: np.ndarray):
+        return a[0].tolist() if model.tying == "tied" else a.tolist()
+
+    return {
+        "model": model.name,
+        "tying": model.tying,
+        "A": shape(model.A_),
+        "B": shape(model.B_),
+        "mu0": shape(model.mu0_),
+        "terminal": model.score(recordings)["terminal"],
+        "calibration": model.calibration_,
+        "frames": int(sum(r.n_frames for r in recordings)),
+    }
+
+
+def run_calibration(recordings: Sequence[Recording], *, model: str, tying: str, posterior: bool, out: str | Path, seed: int = 0) -> list[Path]:
+    """Calibrate, write ``calibration.json`` (and with ``posterior``, ``posterior.json`` and ``corner.png``)."""
+    m = make(model, tying=tying, seed=seed) if model != "proximal" else None
+    if not isinstance(m, CapstanModel):
+        raise ConfigError(f"--model {model}: calibration needs a capstan-family model (capstan-simple, capstan-contact, capstan-nonsmooth, capstan-const-mu)")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    m.fit(recordings)
+    written = [write_text_atomic(out / "calibration.json", json.dumps(calibration_json(m, recordings), indent=2) + "\n")]
+    written.append(m.save(out / "model"))
+    if posterior:
+        from tendon_id.posterior import sample_posterior
+
+        post = sample_posterior(m, recordings, seed=seed)
+        doc = {"parameters": post.summary(), "tau": float(np.max(post.tau)), "seconds": post.seconds,
+               "acceptance": post.acceptance, "walkers": int(post.chain.shape[1]), "steps_kept": int(post.chain.shape[0])}
+        written.append(write_text_atomic(out / "posterior.json", json.dumps(doc, indent=2) + "\n"))
+        fig = post.corner()
+        written.append(atomic_write(out / "corner.png", lambda tmp: fig.savefig(tmp, format="png", dpi=90)))
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return written

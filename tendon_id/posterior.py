@@ -1,0 +1,384 @@
+"""Bayesian posterior of the capstan law ``(A_i, B_i)`` and the noise, with emcee (DESIGN §7).
+
+Likelihood: load-cell noise.  Both the actuator-side input and the terminal
+label are read by load cells with noise ``sigma_i`` [N] (one per tendon), so
+the terminal log residual ``r_t = ln T_hat[N, N, i] - ln T[N, N, i]`` has
+variance ``sigma_i^2 (1 / T[1, N]^2 + 1 / T[N, N]^2)`` to first order (the
+delta method): a heteroscedastic Gaussian whose weights come from the measured
+tensions.  Prior: uniform on the feasible set ``B >= |A|`` (``mu >= 0`` on
+``[0, pi]``) within ``|A|, B <= 2``, and uniform in ``ln sigma_i`` [ln N] on
+``[-12, 6]``.
+
+For smooth models (``ln T_N`` linear in the law) the log-probability needs only
+``X^T X``, ``X^T y`` and ``y^T y``, so it costs O(1) per walker whatever the
+number of frames; it is vectorised over walkers (``emcee``'s ``vectorize=True``).
+Nonsmooth models evaluate the chain per walker and are much slower.
+
+Encoder resolution: the model reads quantised joint angles, and while a joint is
+held its quantisation error stays the same for many frames, so it does not
+average out like load-cell noise.  The posterior marginalises it: the law is
+refitted (smooth surrogate, exact constrained least squares) on angles shifted
+by independent uniform offsets of plus or minus half an encoder step, one per
+run of identical readings, and the spread of those refits is convolved into the
+sampled chain (a linearised errors-in-variables marginalisation).
+
+Convergence follows the integrated autocorrelation time (Goodman & Weare 2010;
+emcee's ``get_autocorr_time``): sampling continues until the chain is longer
+than 50 ``tau`` and the effective sample size of every parameter reaches the
+target.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import dataclasses
+
+import emcee
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.calibration import MU_MAX, LawLayout, _fit_quadratic, linear_design
+from tendon_id.data import Recording
+from tendon_id.errors import ConfigError
+from tendon_id.progress import progress_bar
+from tendon_id.zoo.capstan import CapstanModel
+from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
+
+LOG_SIGMA_RANGE = (-12.0, 6.0)
+
+
+def parameter_names(model: CapstanModel) -> list[str]:
+    """Names of the sampled parameters: ``A_i``, ``B_i`` (``A_k<g>_i`` per guide), then ``log_sigma_i``."""
+    g = model.A_.shape[0]
+    law = ("A", "B") if model.mu_law == "affine-cosine" else ("mu",)
+    names = []
+    for i in range(1, 4):
+        for p in law:
+            names += [f"{p}_{i}"] if g == 1 else [f"{p}_k{k + 1}_{i}" for k in range(g)]
+    return names + [f"log_sigma_{i}" for i in range(1, 4)]
+
+
+@dataclass
+class PosteriorResult:
+    """Samples and diagnostics of :func:`sample_posterior`.
+
+    Attributes
+    ----------
+    names : list of str
+        Parameter names (see :func:`parameter_names`); ``log_sigma_i`` is the
+        natural log of tendon ``i``'s load-cell noise in N.
+    chain : ndarray, shape (steps, walkers, params)
+        Chain after burn-in.
+    tau : ndarray, shape (params,)
+        Integrated autocorrelation time per parameter [steps].
+    ess, rhat : ndarray, shape (params,)
+        ArviZ bulk effective sample size and split R-hat (walkers as chains).
+    acceptance : float
+        Mean acceptance fraction.
+    seconds : float
+        Wall time of the sampling.
+    map_theta : ndarray
+        The calibrated point the walkers started from.
+    encoder_cov : ndarray or None
+        Law covariance from encoder quantisation, shape (3, p, p), convolved into ``chain``.
+    """
+
+    names: list[str]
+    chain: NDArray[np.float64]
+    tau: NDArray[np.float64]
+    ess: NDArray[np.float64]
+    rhat: NDArray[np.float64]
+    acceptance: float
+    seconds: float
+    map_theta: NDArray[np.float64]
+    layout: LawLayout = field(repr=False, default=None)
+    encoder_cov: NDArray | None = field(repr=False, default=None)
+
+    @property
+    def samples(self) -> NDArray[np.float64]:
+        """Flattened draws, shape (draws, params)."""
+        return self.chain.reshape(-1, self.chain.shape[-1])
+
+    def summary(self) -> dict:
+        """``{name: {"mean", "sd", "q2.5", "q97.5", "ess", "rhat"}}`` (DESIGN §10)."""
+        s = self.samples
+        q = np.percentile(s, [2.5, 97.5], axis=0)
+        return {
+            n: {"mean": float(s[:, k].mean()), "sd": float(s[:, k].std(ddof=1)), "q2.5": float(q[0, k]), "q97.5": float(q[1, k]),
+                "ess": float(self.ess[k]), "rhat": float(self.rhat[k])}
+            for k, n in enumerate(self.names)
+        }
+
+    def law_samples(self) -> tuple[NDArray, NDArray]:
+        """Draws of ``A`` and ``B``, each shape (draws, G, 3)."""
+        s = self.samples
+        p = self.layout.size
+        A = np.empty((s.shape[0], self.layout.n_groups, 3))
+        B = np.empty_like(A)
+        for i in range(3):
+            a, b = self.layout.split(s[:, i * p : (i + 1) * p].T)
+            A[:, :, i], B[:, :, i] = a.T, b.T
+        return A, B
+
+    def mu0_samples(self) -> NDArray:
+        """Draws of ``mu_i(0) = A_i + B_i``, shape (draws, G, 3)."""
+        A, B = self.law_samples()
+        return A + B
+
+    def to_arviz(self):
+        """An ``arviz.InferenceData`` with one chain per walker."""
+        import arviz as az
+
+        return az.from_dict(posterior={n: self.chain[:, :, k].T for k, n in enumerate(self.names)})
+
+    def corner(self, truths: Sequence[float] | None = None):
+        """Corner plot of the law parameters (``corner`` package); returns the figure."""
+        import corner
+        import matplotlib
+
+        matplotlib.use("Agg")
+        keep = [k for k, n in enumerate(self.names) if not n.startswith("log_sigma")]
+        return corner.corner(self.samples[:, keep], labels=[self.names[k] for k in keep],
+                             truths=None if truths is None else [truths[k] for k in keep], quantiles=[0.025, 0.5, 0.975])
+
+    def predictive_bands(self, model: CapstanModel, data: Recording | Sequence[Recording], *, n_draws: int = 100,
+                         quantiles: tuple[float, float] = (2.5, 97.5), seed: int = 0) -> dict[str, NDArray]:
+        """Posterior-predictive bands of the joint-side tensions ``T[j, j, i]`` [N].
+
+        Returns
+        -------
+        dict
+            ``"lo"``, ``"median"``, ``"hi"``: arrays of shape (T, N, 3) (parameter
+            uncertainty only; measurement noise is not added).
+        """
+        inputs = model._inputs(data)
+        A, B = self.law_samples()
+        rng = np.random.default_rng(seed)
+        pick = rng.choice(A.shape[0], size=min(n_draws, A.shape[0]), replace=False)
+        values = model._fitted_values()
+        draws = np.stack([np.exp(model.propagate(inputs, A[d], B[d], values, keep_chain=False)).astype(np.float32) for d in pick])
+        lo, med, hi = np.percentile(draws, [quantiles[0], 50.0, quantiles[1]], axis=0)
+        return {"lo": lo, "median": med, "hi": hi}
+
+
+def _law_feasible(law: NDArray, layout: LawLayout) -> NDArray[np.bool_]:
+    """Feasibility of one tendon's law draws, ``law`` of shape (..., p)."""
+    A, B = layout.split(np.moveaxis(law, -1, 0))
+    if layout.mu_law == "affine-cosine":
+        return np.all((B >= np.abs(A)) & (B <= MU_MAX), axis=0)
+    return np.all((B >= 0) & (B <= MU_MAX), axis=0)
+
+
+def _log_prior_mask(theta: NDArray, layout: LawLayout) -> NDArray[np.bool_]:
+    """True where every tendon's law is feasible and the noise is in range (theta: (W, params))."""
+    p = layout.size
+    ok = np.ones(theta.shape[0], dtype=bool)
+    for i in range(3):
+        A, B = layout.split(theta[:, i * p : (i + 1) * p].T)
+        ok &= np.all((B >= np.abs(A)) & (B <= MU_MAX) & (np.abs(A) <= MU_MAX), axis=0) if layout.mu_law == "affine-cosine" else np.all((B >= 0) & (B <= MU_MAX), axis=0)
+    ls = theta[:, 3 * p :]
+    ok &= np.all((ls >= LOG_SIGMA_RANGE[0]) & (ls <= LOG_SIGMA_RANGE[1]), axis=1)
+    return ok
+
+
+def encoder_runs(angles: NDArray) -> NDArray[np.int64]:
+    """Group of every reading whose quantisation error is shared: one per channel and reading value.
+
+    A quantisation error is a function of the true angle, so a joint that returns to
+    the same held pose (the same reading) repeats the same error, in any trajectory.
+    Readings of the same value while moving are grouped too, which errs on the side
+    of more correlation (wider intervals).
+
+    Returns
+    -------
+    ndarray of int, shape (T, N, 2)
+        Group ids, unique over all channels.
+    """
+    t = angles.shape[0]
+    flat = angles.reshape(t, -1)
+    ids = np.empty(flat.shape, dtype=np.int64)
+    offset = 0
+    for c in range(flat.shape[1]):
+        _, inverse = np.unique(flat[:, c], return_inverse=True)
+        ids[:, c] = inverse + offset
+        offset += int(inverse.max()) + 1
+    return ids.reshape(angles.shape)
+
+
+def encoder_covariance(model: CapstanModel, inputs: TransmissionInputs, encoder_step: float, *, n_draws: int = 64,
+                       seed: int = 0) -> NDArray[np.float64]:
+    """Covariance of the law from encoder quantisation, per tendon, shape (3, p, p).
+
+    Refits the smooth surrogate of ``model`` (its law and exponent blocks) on
+    angles offset by ``U(-step/2, step/2)`` per group of :func:`encoder_runs`.
+    """
+    surrogate = CapstanModel(mu_law=model.mu_law, blocks=[b for b in model.block_objects if b.stage == "exponent"],
+                             tying=model.tying)
+    layout = LawLayout(model.mu_law, model.A_.shape[0])
+    runs = encoder_runs(inputs.angles)
+    n_runs = int(runs.max()) + 1
+    rng = np.random.default_rng(seed)
+    fits = np.empty((n_draws, 3, layout.size))
+    for d in range(n_draws):
+        offset = rng.uniform(-0.5, 0.5, size=n_runs) * encoder_step
+        shifted = dataclasses.replace(inputs, angles=inputs.angles + offset[runs])
+        X, Y = linear_design(surrogate, shifted)
+        for i in range(3):
+            fits[d, i] = _fit_quadratic(X, Y[:, i], layout, 1e-10).x
+    return np.stack([np.atleast_2d(np.cov(fits[:, i].T)) for i in range(3)])
+
+
+def sample_posterior(
+    model: CapstanModel,
+    data: Recording | Sequence[Recording],
+    *,
+    n_walkers: int = 32,
+    target_ess: float = 1000.0,
+    max_steps: int = 50000,
+    chunk: int = 500,
+    seed: int = 0,
+    encoder_bits: int | str | None = "auto",
+    progress: bool | None = None,
+) -> PosteriorResult:
+    """Sample the posterior of a calibrated capstan model's law and noise.
+
+    Parameters
+    ----------
+    model : CapstanModel
+        A fitted model; its calibrated law starts the walkers.
+    data : Recording or sequence
+        The calibration data (terminal labels only are used).
+    n_walkers : int
+        emcee walkers (at least twice the number of parameters).
+    target_ess : float
+        Effective sample size to reach for every parameter.
+    max_steps : int
+        Give up after this many steps (the result then says so through its ESS).
+    chunk : int
+        Steps between convergence checks.
+    seed : int
+        Seeds the walkers' start and the sampler.
+    encoder_bits : int, "auto" or None
+        Resolution of the joint encoders, whose quantisation error is
+        marginalised (see the module docstring). ``"auto"``: the recordings'
+        ``sensors.encoder_bits`` metadata, else 12 (the paper's robot); None
+        ignores it.
+    progress : bool, optional
+        Progress bar (default: on a terminal).
+    """
+    if not isinstance(model, CapstanModel):
+        raise ConfigError("the posterior is defined for the capstan family of models")
+    model._check_fitted()
+    recs = [r.fitting_view() for r in as_recordings(data)]
+    inputs = TransmissionInputs.from_recordings(recs, model.geometry_)
+    if encoder_bits == "auto":
+        encoder_bits = int((recs[0].meta.get("sensors") or {}).get("encoder_bits", 12))
+    layout = LawLayout(model.mu_law, model.A_.shape[0])
+    p = layout.size
+    names = parameter_names(model)
+    ndim = len(names)
+    if n_walkers < 2 * ndim:
+        n_walkers = 2 * ndim + (2 * ndim) % 2
+    n_obs = inputs.n_frames
+    log_label = np.log(inputs.terminal)
+    # Delta-method weights of the log residual under load-cell noise, in N^2 (see the module docstring).
+    weight = 1.0 / (1.0 / inputs.actuator[:, -1] ** 2 + 1.0 / inputs.terminal**2)  # (T, 3)
+    theta_law = np.stack([layout.join(model.A_[:, i], model.B_[:, i]) for i in range(3)])  # (3, p)
+
+    if model.is_smooth:
+        X, Y = linear_design(model, inputs)
+        Ms = [X.T @ (weight[:, i, None] * X) for i in range(3)]
+        bs = [X.T @ (weight[:, i] * Y[:, i]) for i in range(3)]
+        cs = [float(np.sum(weight[:, i] * Y[:, i] ** 2)) for i in range(3)]
+
+        def sse(theta: NDArray) -> NDArray:  # weighted sum of squares, (W, 3) [N^2]
+            out = np.empty((theta.shape[0], 3))
+            for i in range(3):
+                th = theta[:, i * p : (i + 1) * p]
+                out[:, i] = np.einsum("wp,pq,wq->w", th, Ms[i], th) - 2.0 * th @ bs[i] + cs[i]
+            return out
+    else:
+        values = model._fitted_values()
+
+        def sse(theta: NDArray) -> NDArray:
+            out = np.empty((theta.shape[0], 3))
+            for w in range(theta.shape[0]):
+                th = theta[w, : 3 * p].reshape(3, p)
+                A = np.stack([layout.split(th[i])[0] for i in range(3)], axis=1)
+                B = np.stack([layout.split(th[i])[1] for i in range(3)], axis=1)
+                pred = model.terminal_reading(inputs, A, B, values)
+                out[w] = np.sum(weight * (np.log(pred) - log_label) ** 2, axis=0)
+            return out
+
+    def log_prob(theta: NDArray) -> NDArray:
+        theta = np.atleast_2d(theta)
+        lp = np.full(theta.shape[0], -np.inf)
+        ok = _log_prior_mask(theta, layout)
+        if ok.any():
+            t = theta[ok]
+            log_sigma = t[:, 3 * p :]
+            lp[ok] = np.sum(-n_obs * log_sigma - 0.5 * sse(t) * np.exp(-2.0 * log_sigma), axis=1)
+        return lp
+
+    # Start: the calibrated law and the residual noise, in a small feasible ball.
+    rng = np.random.default_rng(seed)
+    resid = sse(np.r_[theta_law.ravel(), np.zeros(3)][None])[0]
+    sigma0 = np.sqrt(np.maximum(resid / n_obs, 1e-20))
+    centre = np.r_[theta_law.ravel(), np.log(sigma0)]
+    scale = np.r_[np.maximum(np.abs(theta_law.ravel()), 1e-3) * 1e-3, np.full(3, 1e-3)]
+    start = np.empty((n_walkers, ndim))
+    for w in range(n_walkers):
+        for _ in range(1000):
+            cand = centre + scale * rng.standard_normal(ndim)
+            for i in range(3):  # nudge onto the feasible side of B >= |A|
+                cand[i * p : (i + 1) * p] = layout.project(cand[i * p : (i + 1) * p])
+            if np.isfinite(log_prob(cand)[0]):
+                start[w] = cand
+                break
+        else:  # pragma: no cover - the projection makes this unreachable
+            raise ConfigError("could not place the walkers in the feasible region")
+
+    sampler = emcee.EnsembleSampler(n_walkers, ndim, log_prob, vectorize=True)
+    sampler.random_state = np.random.RandomState(seed).get_state()  # the same seed gives the same chain
+    t0 = time.perf_counter()
+    state = start
+    steps = 0
+    tau = np.full(ndim, np.inf)
+    bar = progress_bar(range(max_steps // chunk), desc="emcee", enable=progress)
+    for _ in bar:
+        state = sampler.run_mcmc(state, chunk, progress=False)
+        steps += chunk
+        tau = sampler.get_autocorr_time(tol=0)
+        burn = int(np.ceil(2 * np.max(tau)))
+        ess_est = n_walkers * (steps - burn) / np.max(tau)
+        if steps > 50 * np.max(tau) and ess_est >= target_ess:
+            break
+    burn = min(int(np.ceil(2 * np.max(tau))), steps // 2)
+    chain = sampler.get_chain(discard=burn).copy()
+    encoder_cov = None
+    if encoder_bits:
+        encoder_cov = encoder_covariance(model, inputs, 2.0 * np.pi / 2**encoder_bits, seed=seed)
+        for i in range(3):
+            law = chain[:, :, i * p : (i + 1) * p]
+            shift = rng.multivariate_normal(np.zeros(p), encoder_cov[i], size=law.shape[:2], check_valid="ignore")
+            moved = law + shift
+            for _ in range(20):  # keep draws in the feasible set: redraw the shifts that leave it
+                bad = ~_law_feasible(moved, layout)
+                if not bad.any():
+                    break
+                moved[bad] = law[bad] + rng.multivariate_normal(np.zeros(p), encoder_cov[i], size=int(bad.sum()), check_valid="ignore")
+            bad = ~_law_feasible(moved, layout)
+            moved[bad] = law[bad]
+            chain[:, :, i * p : (i + 1) * p] = moved
+    import arviz as az
+
+    idata = az.from_dict(posterior={n: chain[:, :, k].T for k, n in enumerate(names)})
+    ess = np.array([float(az.ess(idata, var_names=[n])[n].values) for n in names])
+    rhat = np.array([float(az.rhat(idata, var_names=[n])[n].values) for n in names])
+    return PosteriorResult(names=names, chain=chain, tau=np.asarray(tau, dtype=float), ess=ess, rhat=rhat,
+                           acceptance=float(np.mean(sampler.acceptance_fraction)), seconds=time.perf_counter() - t0,
+                           map_theta=centre, layout=layout, encoder_cov=encoder_cov)
+
