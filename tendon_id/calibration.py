@@ -35,13 +35,15 @@ from numpy.typing import NDArray
 
 from tendon_id.errors import TendonIdError
 
-#: Upper bound on any friction coefficient [-]; no tendon–guide pair comes near it.
+#: Upper bound on mu(0) = A + B [-]; no tendon–guide pair comes near it.
 MU_MAX = 2.0
+#: Lower bound on r = 2 A / mu(0): A may be as negative as 10 mu(0) (mu rising 21-fold by pi).
+R_MIN = -20.0
 #: Constraint tolerance for feasibility checks.
 CTOL = 1e-9
 #: Relative objective tolerance of the derivative-free fits: the sum of squared log errors
 #: of a nonsmooth model is piecewise smooth, and changes below this are rounding, not fit.
-NONSMOOTH_FTOL = 1e-7
+NONSMOOTH_FTOL = 1e-5
 
 _STATUS = {
     nlopt.SUCCESS: "success",
@@ -170,7 +172,15 @@ def minimize(
 
 @dataclass
 class LawLayout:
-    """Per-tendon parameter vector ``[A_1..A_G, B_1..B_G]`` (affine-cosine) or ``[mu_1..mu_G]``."""
+    """Per-tendon parameter vector ``[A_1..A_G, B_1..B_G]`` (affine-cosine) or ``[mu_1..mu_G]``.
+
+    The feasible set of a group is ``B >= |A|`` (``mu >= 0`` on ``[0, pi]``), with the
+    sanity limits ``mu(0) = A + B <= MU_MAX`` and ``A >= R_MIN mu(0) / 2``.  Derivative-free
+    fits work in the free coordinates ``(mu0, r)`` with ``A = r mu0 / 2`` and
+    ``B = mu0 - A``: every point of the box ``0 <= mu0 <= MU_MAX``, ``R_MIN <= r <= 1``
+    is feasible, so COBYLA needs no constraint and ``mu0``, the best-determined
+    combination, is a coordinate.
+    """
 
     mu_law: str
     n_groups: int
@@ -183,7 +193,7 @@ class LawLayout:
         g = self.n_groups
         if self.mu_law == "affine-cosine":
             return x[:g], x[g : 2 * g]
-        return np.zeros(g), x[:g]
+        return np.zeros_like(x[:g]), x[:g]
 
     def join(self, A: NDArray, B: NDArray) -> NDArray:
         return np.concatenate([A, B]) if self.mu_law == "affine-cosine" else np.asarray(B, dtype=float)
@@ -191,29 +201,63 @@ class LawLayout:
     def bounds(self) -> tuple[NDArray, NDArray]:
         g = self.n_groups
         if self.mu_law == "affine-cosine":
-            return np.r_[np.full(g, -MU_MAX), np.zeros(g)], np.full(2 * g, MU_MAX)
+            return np.r_[np.full(g, R_MIN * MU_MAX / 2), np.zeros(g)], np.r_[np.full(g, MU_MAX / 2), np.full(g, MU_MAX * (1 - R_MIN / 2))]
         return np.zeros(g), np.full(g, MU_MAX)
 
-    def constraint_jacobian(self) -> NDArray | None:
-        """``A - B <= 0`` and ``-A - B <= 0`` per group: ``mu >= 0`` on ``[0, pi]``."""
+    def constraints(self) -> tuple[NDArray, NDArray] | None:
+        """Linear constraints ``C x <= d`` of the feasible set (affine-cosine law)."""
         if self.mu_law != "affine-cosine":
             return None
         g = self.n_groups
-        eye = np.eye(g)
-        return np.block([[eye, -eye], [-eye, -eye]])
+        eye, zero = np.eye(g), np.zeros(g)
+        C = np.block([[eye, -eye], [-eye, -eye], [eye, eye], [-(1 - R_MIN / 2) * eye, -(-R_MIN / 2) * eye]])
+        d = np.r_[zero, zero, np.full(g, MU_MAX), zero]
+        return C, d
+
+    def feasible(self, x: NDArray, tol: float = 1e-12) -> NDArray[np.bool_]:
+        """Feasibility of draws ``x`` of shape (..., size)."""
+        A, B = self.split(np.moveaxis(np.asarray(x, dtype=float), -1, 0))
+        if self.mu_law != "affine-cosine":
+            return np.all((B >= -tol) & (B <= MU_MAX + tol), axis=0)
+        mu0 = A + B
+        return np.all((B >= np.abs(A) - tol) & (mu0 <= MU_MAX + tol) & (A >= R_MIN * mu0 / 2 - tol), axis=0)
+
+    def to_free(self, x: NDArray) -> NDArray:
+        """``(A, B)`` to the free box coordinates ``(mu0, r)``."""
+        if self.mu_law != "affine-cosine":
+            return np.asarray(x, dtype=float)
+        A, B = self.split(np.asarray(x, dtype=float))
+        mu0 = np.clip(A + B, 0.0, MU_MAX)
+        r = np.divide(2 * A, mu0, out=np.zeros_like(mu0), where=mu0 > 0)
+        return np.concatenate([mu0, np.clip(r, R_MIN, 1.0)])
+
+    def from_free(self, z: NDArray) -> NDArray:
+        """Free coordinates back to ``(A, B)``; always feasible."""
+        if self.mu_law != "affine-cosine":
+            return np.asarray(z, dtype=float)
+        g = self.n_groups
+        mu0, r = z[:g], z[g:]
+        A = 0.5 * r * mu0
+        return self.join(A, mu0 - A)
+
+    def free_bounds(self) -> tuple[NDArray, NDArray]:
+        g = self.n_groups
+        if self.mu_law != "affine-cosine":
+            return np.zeros(g), np.full(g, MU_MAX)
+        return np.r_[np.zeros(g), np.full(g, R_MIN)], np.r_[np.full(g, MU_MAX), np.ones(g)]
 
     def project(self, x: NDArray) -> NDArray:
-        A, B = self.split(np.asarray(x, dtype=float))
-        return self.join(np.clip(A, -MU_MAX, MU_MAX), np.clip(np.maximum(B, np.abs(A)), 0.0, MU_MAX))
+        """The nearest-in-spirit feasible point: through the free coordinates."""
+        return self.from_free(self.to_free(x))
 
     def random_feasible(self, rng: np.random.Generator, around: NDArray) -> NDArray:
-        """A random feasible start: ``mu(0)`` scaled by 0.5–1.5 from ``around``, split at random."""
-        A0, B0 = self.split(around)
-        mu0 = np.maximum(A0 + B0, 1e-3) * rng.uniform(0.5, 1.5, size=A0.shape)
-        if self.mu_law != "affine-cosine":
-            return self.join(A0, mu0)
-        share = rng.uniform(-0.45, 0.45, size=A0.shape)  # A = share * mu0 keeps B = mu0 - A >= |A|
-        return self.project(self.join(share * mu0, (1 - share) * mu0))
+        """A random feasible start: ``mu(0)`` scaled by 0.5–1.5 from ``around``, ``r`` uniform in [-2, 1]."""
+        z = self.to_free(around)
+        g = self.n_groups
+        z[:g] = np.clip(np.maximum(z[:g], 1e-3) * rng.uniform(0.5, 1.5, size=g), 0.0, MU_MAX)
+        if self.mu_law == "affine-cosine":
+            z[g:] = rng.uniform(-2.0, 1.0, size=g)
+        return self.from_free(z)
 
 
 @dataclass
@@ -274,7 +318,7 @@ def linear_design(model, inputs) -> tuple[NDArray, NDArray]:
 def _fit_quadratic(X: NDArray, y: NDArray, layout: LawLayout, xtol_rel: float) -> Outcome:
     """Constrained least squares ``min |y - X x|^2`` with SLSQP on the exact quadratic."""
     M, b, c = X.T @ X, X.T @ y, float(y @ y)
-    jac = layout.constraint_jacobian()
+    cons = layout.constraints()
     lb, ub = layout.bounds()
     x0 = layout.project(np.linalg.lstsq(X, y, rcond=None)[0])
     return minimize(
@@ -283,8 +327,8 @@ def _fit_quadratic(X: NDArray, y: NDArray, layout: LawLayout, xtol_rel: float) -
         lb=lb,
         ub=ub,
         grad=lambda x: 2.0 * (M @ x - b),
-        ineq=(lambda x: jac @ x) if jac is not None else None,
-        ineq_jac=jac,
+        ineq=(lambda x: cons[0] @ x - cons[1]) if cons is not None else None,
+        ineq_jac=cons[0] if cons is not None else None,
         project=layout.project,
         xtol_rel=xtol_rel,
         maxeval=10000,
@@ -316,7 +360,7 @@ def calibrate_capstan(model, inputs) -> CalibrationResult:
     n = inputs.n_modules
     layout = LawLayout(model.mu_law, 1 if model.tying == "tied" else n - 1)
     X, Y = linear_design(model, inputs)
-    smooth = [_fit_quadratic(X, Y[:, i], layout, model.xtol_rel) for i in range(3)]
+    smooth = [_fit_quadratic(X, Y[:, i], layout, 1e-10) for i in range(3)]
     status = [o.status for o in smooth]
     n_eval = sum(o.n_eval for o in smooth)
     theta = np.stack([o.x for o in smooth], axis=1)  # (p, 3)
@@ -325,16 +369,15 @@ def calibrate_capstan(model, inputs) -> CalibrationResult:
     values = model._values()
     log_label = np.log(inputs.terminal)
     rng = np.random.default_rng(model.seed)
-    jac = layout.constraint_jacobian()
-    lb, ub = layout.bounds()
 
     if model.is_smooth:
         loss = sum(o.f for o in smooth) / n_obs
         starts = 1
     elif not free:
-        # Tendons are independent: fit each one's law on its own (2G parameters).
+        # Tendons are independent: fit each one's law on its own, in the free box coordinates.
         loss, starts = 0.0, int(model.n_starts)
         multiplier = inputs.wrap[..., None] * model.exponent_multiplier(inputs, values)  # fixed: no free block parameters
+        zlb, zub = layout.free_bounds()
         for i in range(3):
             def sse(x, i=i):
                 A, B = layout.split(x)
@@ -342,64 +385,48 @@ def calibrate_capstan(model, inputs) -> CalibrationResult:
                 return float(np.sum((np.log(pred) - log_label[:, i]) ** 2))
 
             x_starts = _starts(sse, layout, theta[:, i], rng, starts)
-            outs = [
-                minimize(sse, x, lb=lb, ub=ub, ineq=(lambda x: jac @ x) if jac is not None else None,
-                         project=layout.project, xtol_rel=model.xtol_rel, ftol_rel=NONSMOOTH_FTOL, maxeval=model.maxeval)
-                for x in x_starts
-            ]
+            outs = [minimize(lambda z: sse(layout.from_free(z)), layout.to_free(x), lb=zlb, ub=zub, xtol_rel=model.xtol_rel,
+                             ftol_rel=NONSMOOTH_FTOL, maxeval=model.maxeval) for x in x_starts]
             best = min(outs, key=lambda o: o.f)
-            theta[:, i] = best.x
+            theta[:, i] = layout.from_free(best.x)
             status.append(best.status)
             n_eval += sum(o.n_eval for o in outs)
             loss += best.f
         loss /= n_obs
     else:
-        # Free block parameters couple the tendons: one joint fit.
+        # Free block parameters couple the tendons: one joint fit (law in free box coordinates).
         p = layout.size
         names = [(b, q) for b, q, _, _ in free]
         blo = np.array([bd[0] for _, _, bd, _ in free])
         bhi = np.array([bd[1] for _, _, bd, _ in free])
         b0 = np.array([v for *_, v in free])
+        zlb, zub = layout.free_bounds()
 
-        def unpack(x):
-            th = x[: 3 * p].reshape(3, p).T
+        def unpack(z):
+            th = np.stack([layout.from_free(z[i * p : (i + 1) * p]) for i in range(3)], axis=1)  # (p, 3)
             vals = {k: dict(v) for k, v in values.items()}
-            for (bn, q), v in zip(names, x[3 * p :]):
+            for (bn, q), v in zip(names, z[3 * p :]):
                 vals[bn][q] = float(v)
             A, B = layout.split(th)
             return A, B, vals
 
-        def sse(x):
-            A, B, vals = unpack(x)
+        def sse(z):
+            A, B, vals = unpack(z)
             pred = model.terminal_reading(inputs, A, B, vals)
             return float(np.sum((np.log(pred) - log_label) ** 2))
 
-        def ineq(x):
-            if jac is None:
-                return np.zeros(1)
-            th = x[: 3 * p].reshape(3, p)
-            return np.concatenate([jac @ th[i] for i in range(3)])
-
-        def project(x):
-            x = x.copy()
-            for i in range(3):
-                x[i * p : (i + 1) * p] = layout.project(x[i * p : (i + 1) * p])
-            x[3 * p :] = np.clip(x[3 * p :], blo, bhi)
-            return x
-
-        lb_all = np.r_[np.tile(lb, 3), blo]
-        ub_all = np.r_[np.tile(ub, 3), bhi]
-        x0 = np.r_[theta.T.ravel(), b0]
         starts = int(model.n_starts)
-        law_scan = [np.tile(layout.join(np.zeros(layout.n_groups), np.full(layout.n_groups, mu)), 3) for mu in MU0_GRID]
-        scan_start = min((np.r_[law, b0] for law in law_scan), key=sse)
-        x_starts = [scan_start, x0] + [
-            project(np.r_[np.concatenate([layout.random_feasible(rng, scan_start[i * p : (i + 1) * p]) for i in range(3)]), rng.uniform(blo, bhi)])
-            for _ in range(max(starts - 2, 0))
-        ]
-        x_starts = x_starts[:starts]
-        outs = [minimize(sse, x, lb=lb_all, ub=ub_all, ineq=ineq, project=project, xtol_rel=model.xtol_rel,
-                         ftol_rel=NONSMOOTH_FTOL, maxeval=model.maxeval * 3) for x in x_starts]
+        free0 = lambda th3: np.concatenate([layout.to_free(th3[:, i]) for i in range(3)])  # noqa: E731
+        scan = [np.r_[free0(np.tile(layout.join(np.zeros(layout.n_groups), np.full(layout.n_groups, mu))[:, None], 3)), b0] for mu in MU0_GRID]
+        scan_start = min(scan, key=sse)
+        # The smooth law with the blocks at their initial (usually neutral) values comes first:
+        # the augmented model then starts from the base model's fit and can only improve on it.
+        z_starts = [np.r_[free0(theta), b0], scan_start]
+        while len(z_starts) < starts:
+            law = np.stack([layout.random_feasible(rng, layout.from_free(scan_start[i * p : (i + 1) * p])) for i in range(3)], axis=1)
+            z_starts.append(np.r_[free0(law), rng.uniform(blo, bhi)])
+        outs = [minimize(sse, z, lb=np.r_[np.tile(zlb, 3), blo], ub=np.r_[np.tile(zub, 3), bhi], xtol_rel=model.xtol_rel,
+                         ftol_rel=NONSMOOTH_FTOL, maxeval=model.maxeval * 3) for z in z_starts[:starts]]
         best = min(outs, key=lambda o: o.f)
         A, B, vals = unpack(best.x)
         theta = np.stack([layout.join(A[:, i], B[:, i]) for i in range(3)], axis=1)
@@ -410,8 +437,8 @@ def calibrate_capstan(model, inputs) -> CalibrationResult:
 
     A = np.stack([layout.split(theta[:, i])[0] for i in range(3)], axis=1)
     B = np.stack([layout.split(theta[:, i])[1] for i in range(3)], axis=1)
-    if model.mu_law == "affine-cosine" and np.any(B < np.abs(A) - CTOL):
-        raise CalibrationError("calibration ended outside B >= |A|; this is a bug, please report it")
+    if not all(layout.feasible(theta[:, i], CTOL) for i in range(3)):
+        raise CalibrationError("calibration ended outside the feasible set B >= |A|; this is a bug, please report it")
     block_values = {b: {q: values[b][q] for q, in [(q,) for (bb, q, _, _) in free if bb == b]} for b in {bb for bb, *_ in free}}
     return CalibrationResult(A=A, B=B, block_values=block_values, loss=float(loss), status=status, n_eval=n_eval,
                              starts=starts, seconds=time.perf_counter() - t0)

@@ -6,7 +6,8 @@ the terminal log residual ``r_t = ln T_hat[N, N, i] - ln T[N, N, i]`` has
 variance ``sigma_i^2 (1 / T[1, N]^2 + 1 / T[N, N]^2)`` to first order (the
 delta method): a heteroscedastic Gaussian whose weights come from the measured
 tensions.  Prior: uniform on the feasible set ``B >= |A|`` (``mu >= 0`` on
-``[0, pi]``) within ``|A|, B <= 2``, and uniform in ``ln sigma_i`` [ln N] on
+``[0, pi]``) within the sanity limits of
+:class:`~tendon_id.calibration.LawLayout`, and uniform in ``ln sigma_i`` [ln N] on
 ``[-12, 6]``.
 
 For smooth models (``ln T_N`` linear in the law) the log-probability needs only
@@ -40,7 +41,7 @@ import emcee
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.calibration import MU_MAX, LawLayout, _fit_quadratic, linear_design
+from tendon_id.calibration import LawLayout, _fit_quadratic, linear_design
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.progress import progress_bar
@@ -73,7 +74,8 @@ class PosteriorResult:
     chain : ndarray, shape (steps, walkers, params)
         Chain after burn-in.
     tau : ndarray, shape (params,)
-        Integrated autocorrelation time per parameter [steps].
+        Integrated autocorrelation time per sampled coordinate ``(mu0, r)`` per group, then
+        ``log_sigma`` [steps].
     ess, rhat : ndarray, shape (params,)
         ArviZ bulk effective sample size and split R-hat (walkers as chains).
     acceptance : float
@@ -166,10 +168,7 @@ class PosteriorResult:
 
 def _law_feasible(law: NDArray, layout: LawLayout) -> NDArray[np.bool_]:
     """Feasibility of one tendon's law draws, ``law`` of shape (..., p)."""
-    A, B = layout.split(np.moveaxis(law, -1, 0))
-    if layout.mu_law == "affine-cosine":
-        return np.all((B >= np.abs(A)) & (B <= MU_MAX), axis=0)
-    return np.all((B >= 0) & (B <= MU_MAX), axis=0)
+    return layout.feasible(law)
 
 
 def _log_prior_mask(theta: NDArray, layout: LawLayout) -> NDArray[np.bool_]:
@@ -177,8 +176,7 @@ def _log_prior_mask(theta: NDArray, layout: LawLayout) -> NDArray[np.bool_]:
     p = layout.size
     ok = np.ones(theta.shape[0], dtype=bool)
     for i in range(3):
-        A, B = layout.split(theta[:, i * p : (i + 1) * p].T)
-        ok &= np.all((B >= np.abs(A)) & (B <= MU_MAX) & (np.abs(A) <= MU_MAX), axis=0) if layout.mu_law == "affine-cosine" else np.all((B >= 0) & (B <= MU_MAX), axis=0)
+        ok &= layout.feasible(theta[:, i * p : (i + 1) * p])
     ls = theta[:, 3 * p :]
     ok &= np.all((ls >= LOG_SIGMA_RANGE[0]) & (ls <= LOG_SIGMA_RANGE[1]), axis=1)
     return ok
@@ -313,33 +311,52 @@ def sample_posterior(
                 out[w] = np.sum(weight * (np.log(pred) - log_label) ** 2, axis=0)
             return out
 
-    def log_prob(theta: NDArray) -> NDArray:
-        theta = np.atleast_2d(theta)
-        lp = np.full(theta.shape[0], -np.inf)
-        ok = _log_prior_mask(theta, layout)
+    # The walkers move in the free box coordinates (mu0, r) of LawLayout, where the feasible
+    # set is a box and mu0, the combination the data pins down, is an axis; the prior stays
+    # uniform in (A, B) through the Jacobian |d(A, B)/d(mu0, r)| = mu0 / 2.
+    zlb, zub = layout.free_bounds()
+    g = layout.n_groups
+    affine = layout.mu_law == "affine-cosine"
+
+    def to_theta(z: NDArray) -> NDArray:
+        theta = z.copy()
+        for i in range(3):
+            blk = z[:, i * p : (i + 1) * p]
+            if affine:
+                A = 0.5 * blk[:, g:] * blk[:, :g]
+                theta[:, i * p : i * p + g] = A
+                theta[:, i * p + g : (i + 1) * p] = blk[:, :g] - A
+        return theta
+
+    def log_prob(z: NDArray) -> NDArray:
+        z = np.atleast_2d(z)
+        lp = np.full(z.shape[0], -np.inf)
+        law = z[:, : 3 * p].reshape(z.shape[0], 3, p)
+        ok = np.all((law >= zlb) & (law <= zub), axis=(1, 2))
+        ls = z[:, 3 * p :]
+        ok &= np.all((ls >= LOG_SIGMA_RANGE[0]) & (ls <= LOG_SIGMA_RANGE[1]), axis=1)
+        if affine:
+            ok &= np.all(law[:, :, :g] > 0, axis=(1, 2))
         if ok.any():
-            t = theta[ok]
+            t = to_theta(z[ok])
             log_sigma = t[:, 3 * p :]
             lp[ok] = np.sum(-n_obs * log_sigma - 0.5 * sse(t) * np.exp(-2.0 * log_sigma), axis=1)
+            if affine:
+                lp[ok] += np.sum(np.log(0.5 * law[ok][:, :, :g]), axis=(1, 2))
         return lp
 
-    # Start: the calibrated law and the residual noise, in a small feasible ball.
+    # Start: the calibrated law and the residual noise, in a small ball inside the box.
     rng = np.random.default_rng(seed)
     resid = sse(np.r_[theta_law.ravel(), np.zeros(3)][None])[0]
     sigma0 = np.sqrt(np.maximum(resid / n_obs, 1e-20))
-    centre = np.r_[theta_law.ravel(), np.log(sigma0)]
-    scale = np.r_[np.maximum(np.abs(theta_law.ravel()), 1e-3) * 1e-3, np.full(3, 1e-3)]
-    start = np.empty((n_walkers, ndim))
-    for w in range(n_walkers):
-        for _ in range(1000):
-            cand = centre + scale * rng.standard_normal(ndim)
-            for i in range(3):  # nudge onto the feasible side of B >= |A|
-                cand[i * p : (i + 1) * p] = layout.project(cand[i * p : (i + 1) * p])
-            if np.isfinite(log_prob(cand)[0]):
-                start[w] = cand
-                break
-        else:  # pragma: no cover - the projection makes this unreachable
-            raise ConfigError("could not place the walkers in the feasible region")
+    z_law = np.concatenate([layout.to_free(theta_law[i]) for i in range(3)])
+    centre = np.r_[z_law, np.log(sigma0)]
+    span = np.r_[np.tile(zub - zlb, 3), np.full(3, 1.0)]
+    inner_lo = np.r_[np.tile(zlb, 3), np.full(3, LOG_SIGMA_RANGE[0])] + 1e-6 * span
+    inner_hi = np.r_[np.tile(zub, 3), np.full(3, LOG_SIGMA_RANGE[1])] - 1e-6 * span
+    start = np.clip(centre + 1e-4 * span * rng.standard_normal((n_walkers, ndim)), inner_lo, inner_hi)
+    if not np.all(np.isfinite(log_prob(start))):  # pragma: no cover - the clip keeps every start inside
+        raise ConfigError("could not place the walkers in the feasible region")
 
     sampler = emcee.EnsembleSampler(n_walkers, ndim, log_prob, vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()  # the same seed gives the same chain
@@ -357,7 +374,8 @@ def sample_posterior(
         if steps > 50 * np.max(tau) and ess_est >= target_ess:
             break
     burn = min(int(np.ceil(2 * np.max(tau))), steps // 2)
-    chain = sampler.get_chain(discard=burn).copy()
+    z_chain = sampler.get_chain(discard=burn)
+    chain = to_theta(z_chain.reshape(-1, ndim)).reshape(z_chain.shape)
     encoder_cov = None
     if encoder_bits:
         encoder_cov = encoder_covariance(model, inputs, 2.0 * np.pi / 2**encoder_bits, seed=seed)
@@ -380,5 +398,5 @@ def sample_posterior(
     rhat = np.array([float(az.rhat(idata, var_names=[n])[n].values) for n in names])
     return PosteriorResult(names=names, chain=chain, tau=np.asarray(tau, dtype=float), ess=ess, rhat=rhat,
                            acceptance=float(np.mean(sampler.acceptance_fraction)), seconds=time.perf_counter() - t0,
-                           map_theta=centre, layout=layout, encoder_cov=encoder_cov)
+                           map_theta=np.r_[theta_law.ravel(), np.log(sigma0)], layout=layout, encoder_cov=encoder_cov)
 

@@ -100,7 +100,8 @@ class CapstanModel(TransmissionModel):
     seed : int
         Seed of the extra starts.
     xtol_rel : float
-        Relative parameter tolerance of nlopt.
+        Relative parameter tolerance of the derivative-free (nonsmooth) fits; smooth
+        fits are solved to 1e-10.
     maxeval : int
         Objective evaluations per start (nonsmooth models).
 
@@ -127,7 +128,7 @@ class CapstanModel(TransmissionModel):
         robot: dict | None = None,
         n_starts: int = 3,
         seed: int = 0,
-        xtol_rel: float = 1e-5,
+        xtol_rel: float = 1e-3,
         maxeval: int = 400,
     ):
         self.mu_law = mu_law
@@ -359,7 +360,7 @@ def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[C
     """A registered capstan variant: fixed law and blocks, everything else settable."""
 
     def __init__(self, tying: str = "tied", robot: dict | None = None, n_starts: int = 3, seed: int = 0,
-                 xtol_rel: float = 1e-5, maxeval: int = 400, blocks: Sequence[Block | str] = blocks):
+                 xtol_rel: float = 1e-3, maxeval: int = 400, blocks: Sequence[Block | str] = blocks):
         CapstanModel.__init__(self, mu_law=mu_law, blocks=blocks, tying=tying, robot=robot, n_starts=n_starts,
                               seed=seed, xtol_rel=xtol_rel, maxeval=maxeval)
 
