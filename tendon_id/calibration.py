@@ -437,8 +437,13 @@ def calibrate_capstan(model, inputs) -> CalibrationResult:
 
     A = np.stack([layout.split(theta[:, i])[0] for i in range(3)], axis=1)
     B = np.stack([layout.split(theta[:, i])[1] for i in range(3)], axis=1)
-    if not all(layout.feasible(theta[:, i], CTOL) for i in range(3)):
+    if model.mu_law == "affine-cosine":
+        # Optimisers stop within CTOL of the edge B = |A|; land exactly on the feasible side.
+        B = np.maximum(B, np.abs(A))
+    if not all(layout.feasible(layout.join(A[:, i], B[:, i]), CTOL) for i in range(3)):
         raise CalibrationError("calibration ended outside the feasible set B >= |A|; this is a bug, please report it")
-    block_values = {b: {q: values[b][q] for q, in [(q,) for (bb, q, _, _) in free if bb == b]} for b in {bb for bb, *_ in free}}
+    block_values: dict[str, dict[str, float]] = {}
+    for b, q, _, _ in free:
+        block_values.setdefault(b, {})[q] = float(values[b][q])
     return CalibrationResult(A=A, B=B, block_values=block_values, loss=float(loss), status=status, n_eval=n_eval,
                              starts=starts, seconds=time.perf_counter() - t0)
