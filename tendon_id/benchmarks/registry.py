@@ -23,10 +23,13 @@ def format_table(result: dict) -> str:
     """The rows as an aligned text table (terminal and intermediate joints)."""
     if result["benchmark"] == "recovery":
         return format_recovery(result)
-    head = f"{'method':22s} {'protocol':15s} {'RMSE [N]':>9s} {'R2':>7s} {'MaxErr':>8s} | {'joints RMSE':>11s} {'R2':>7s}"
-    lines = [f"{result['benchmark']} ({result.get('recipe', '')}, preset {result['preset']}, {result['seconds']:.1f} s)", head, "-" * len(head)]
+    head = f"{'method':22s} {'protocol':15s} {'RMSE [N]':>9s} {'+-sd':>6s} {'R2':>7s} {'MaxErr':>8s} | {'joints RMSE':>11s} {'R2':>7s}"
+    reps = result["rows"][0].get("repeats", 1) if result["rows"] else 1
+    lines = [f"{result['benchmark']} ({result.get('recipe', '')}, preset {result['preset']}, mean over {reps} splits, "
+             f"{result['seconds']:.1f} s)", head, "-" * len(head)]
     for r in result["rows"]:
         t, j = r["terminal"], r["joints"]
+        sd = (r.get("terminal_sd") or {}).get("rmse", 0.0)
         js = f"{j['rmse']:11.3f} {j['r2']:7.3f}" if j else f"{'-':>11s} {'-':>7s}"
-        lines.append(f"{r['method']:22s} {r['protocol']:15s} {t['rmse']:9.3f} {t['r2']:7.3f} {t['max_error']:8.3f} | {js}")
+        lines.append(f"{r['method']:22s} {r['protocol']:15s} {t['rmse']:9.3f} {sd:6.2f} {t['r2']:7.3f} {t['max_error']:8.3f} | {js}")
     return "\n".join(lines)
