@@ -25,6 +25,7 @@ plain floats.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -339,16 +340,18 @@ def _fit_quadratic(X: NDArray, y: NDArray, layout: LawLayout, xtol_rel: float) -
 MU0_GRID = np.geomspace(0.02, 1.5, 16)
 
 
-def _starts(sse: Callable[[NDArray], float], layout: LawLayout, smooth: NDArray, rng: np.random.Generator, n: int) -> list[NDArray]:
+def _starts(sse: Callable[[NDArray], float], layout: LawLayout, smooth: NDArray, rng: np.random.Generator, n: int,
+            smooth_first: bool = False) -> list[NDArray]:
     """Multi-start points: the best of a constant-mu scan, the smooth solution, then random feasible ones.
 
-    The smooth (no-hysteresis) solution can sit far from the nonsmooth optimum, so the
-    first start comes from a 16-point scan of a constant ``mu`` (``A = 0``).
+    With hysteresis the smooth (no-hysteresis) solution can sit far from the optimum, so the
+    first start comes from a 16-point scan of a constant ``mu`` (``A = 0``); without it
+    (``smooth_first``) the smooth solution is the better first start.
     """
     g = layout.n_groups
     scan = [layout.join(np.zeros(g), np.full(g, mu)) for mu in MU0_GRID]
     best = min(scan, key=sse)
-    starts = [best, smooth]
+    starts = [smooth, best] if smooth_first else [best, smooth]
     while len(starts) < n:
         starts.append(layout.random_feasible(rng, best))
     return starts[:n]
@@ -360,11 +363,16 @@ def calibrate_capstan(model, inputs) -> CalibrationResult:
     n = inputs.n_modules
     layout = LawLayout(model.mu_law, 1 if model.tying == "tied" else n - 1)
     X, Y = linear_design(model, inputs)
-    smooth = [_fit_quadratic(X, Y[:, i], layout, 1e-10) for i in range(3)]
+    keep = inputs.since_start >= float(model.warmup_s)  # frames that count (see CapstanModel.warmup_s)
+    if not keep.any():
+        from tendon_id.errors import ConfigError
+
+        raise ConfigError(f"warmup_s={model.warmup_s} leaves no frame to calibrate on")
+    smooth = [_fit_quadratic(X[keep], Y[keep, i], layout, 1e-10) for i in range(3)]
     status = [o.status for o in smooth]
     n_eval = sum(o.n_eval for o in smooth)
     theta = np.stack([o.x for o in smooth], axis=1)  # (p, 3)
-    n_obs = inputs.n_frames * 3
+    n_obs = int(keep.sum()) * 3
     free = model.free_parameters()
     values = model._values()
     log_label = np.log(inputs.terminal)
@@ -382,9 +390,10 @@ def calibrate_capstan(model, inputs) -> CalibrationResult:
             def sse(x, i=i):
                 A, B = layout.split(x)
                 pred = model.terminal_reading(inputs, A[:, None], B[:, None], values, tendons=np.array([i]), multiplier=multiplier)[:, 0]
-                return float(np.sum((np.log(pred) - log_label[:, i]) ** 2))
+                return float(np.sum((np.log(pred[keep]) - log_label[keep, i]) ** 2))
 
-            x_starts = _starts(sse, layout, theta[:, i], rng, starts)
+            x_starts = _starts(sse, layout, theta[:, i], rng, starts,
+                               smooth_first=not any(b.stage == "propagate" for b in model.block_objects))
             outs = [minimize(lambda z: sse(layout.from_free(z)), layout.to_free(x), lb=zlb, ub=zub, xtol_rel=model.xtol_rel,
                              ftol_rel=NONSMOOTH_FTOL, maxeval=model.maxeval) for x in x_starts]
             best = min(outs, key=lambda o: o.f)
@@ -413,8 +422,15 @@ def calibrate_capstan(model, inputs) -> CalibrationResult:
         def sse(z):
             A, B, vals = unpack(z)
             pred = model.terminal_reading(inputs, A, B, vals)
-            return float(np.sum((np.log(pred) - log_label) ** 2))
+            return float(np.sum((np.log(pred[keep]) - log_label[keep]) ** 2))
 
+        # Stage 1: the law alone, with every block held at its initial (neutral) values, by the
+        # cheaper per-tendon route.  The joint fit then starts from that base fit.
+        base = model.with_blocks()
+        base.blocks = tuple(dataclasses.replace(b, fixed=True) for b in base.block_objects)
+        base_fit = calibrate_capstan(base, inputs)
+        theta = np.stack([layout.join(base_fit.A[:, i], base_fit.B[:, i]) for i in range(3)], axis=1)
+        n_eval += base_fit.n_eval
         starts = int(model.n_starts)
         free0 = lambda th3: np.concatenate([layout.to_free(th3[:, i]) for i in range(3)])  # noqa: E731
         scan = [np.r_[free0(np.tile(layout.join(np.zeros(layout.n_groups), np.full(layout.n_groups, mu))[:, None], 3)), b0] for mu in MU0_GRID]

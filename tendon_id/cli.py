@@ -91,7 +91,7 @@ def _write_json(path: Path, obj: dict) -> None:
 
 @app.command()
 def fit(
-    model: str = typer.Argument(..., help="Zoo model name (see 'tendon-id fit --list')."),
+    model: str = typer.Argument(..., help="Zoo model: proximal, capstan-simple, capstan-contact, capstan-nonsmooth, capstan-const-mu or capstan."),
     data: list[Path] = typer.Option(None, "--data", help="Recording(s) to fit on; repeat for several."),
     set_: list[str] = typer.Option(None, "--set", help="Model setting key=value (JSON values); repeatable."),
     out: Path = typer.Option(..., "--out", help="Folder for the fitted model (model.json + arrays.npz)."),

@@ -80,13 +80,14 @@ class ViscoelasticLag(Block):
     tau_v : float
         Relaxation time [s].
     kappa : float
-        Relaxing fraction per guide.
+        Relaxing fraction per guide; the default 0 starts a fit from "no lag", so a
+        model with this block starts from its base model's fit.
     """
 
     name = "viscoelastic"
     stage = "guide_output"
     tau_v: float = 1.0
-    kappa: float = 0.05
+    kappa: float = 0.0
     param_names: tuple[str, ...] = ("tau_v", "kappa")
     bounds: dict = field(default_factory=lambda: {"tau_v": (0.05, 60.0), "kappa": (0.0, 0.5)})
 

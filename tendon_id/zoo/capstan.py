@@ -104,6 +104,11 @@ class CapstanModel(TransmissionModel):
         fits are solved to 1e-10.
     maxeval : int
         Objective evaluations per start (nonsmooth models).
+    warmup_s : float
+        Seconds at the start of every trajectory left out of the calibration loss [s].
+        A log starts in an unknown stick/slip state, which the model replaces by forward
+        slip; a warm-up lets the hysteresis forget that guess before frames count.
+        0 (the paper's baseline) uses every frame.
 
     Attributes
     ----------
@@ -130,6 +135,7 @@ class CapstanModel(TransmissionModel):
         seed: int = 0,
         xtol_rel: float = 1e-3,
         maxeval: int = 400,
+        warmup_s: float = 0.0,
     ):
         self.mu_law = mu_law
         self.blocks = blocks
@@ -139,6 +145,7 @@ class CapstanModel(TransmissionModel):
         self.seed = seed
         self.xtol_rel = xtol_rel
         self.maxeval = maxeval
+        self.warmup_s = warmup_s
 
     # ---- structure -----------------------------------------------------------
     def _validated(self) -> tuple[Block, ...]:
@@ -148,6 +155,8 @@ class CapstanModel(TransmissionModel):
             raise ConfigError(f"tying must be one of {TYINGS}, got {self.tying!r}")
         if int(self.n_starts) < 1 or int(self.maxeval) < 10:
             raise ConfigError("n_starts must be >= 1 and maxeval >= 10")
+        if not float(self.warmup_s) >= 0:
+            raise ConfigError(f"warmup_s must be a non-negative time in s, got {self.warmup_s!r}")
         blocks = tuple(_as_block(b) for b in self.blocks)
         if sum(b.stage == "propagate" for b in blocks) > 1:
             raise ConfigError("a model can have at most one propagation block (hysteresis)")
@@ -179,8 +188,8 @@ class CapstanModel(TransmissionModel):
 
     @property
     def is_smooth(self) -> bool:
-        """True when ``ln T_N`` is linear in the law and no block has free parameters."""
-        return not any(b.stage in ("propagate", "guide_output") for b in self.block_objects) and not self.free_parameters()
+        """True when ``ln T_N`` is linear in the law: no propagation, output or sensor block, no free parameter."""
+        return not any(b.stage in ("propagate", "guide_output", "sensor") for b in self.block_objects) and not self.free_parameters()
 
     # ---- forward model -------------------------------------------------------------
     def _values(self, overrides: dict | None = None) -> dict[str, dict[str, float]]:
@@ -360,9 +369,9 @@ def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[C
     """A registered capstan variant: fixed law and blocks, everything else settable."""
 
     def __init__(self, tying: str = "tied", robot: dict | None = None, n_starts: int = 3, seed: int = 0,
-                 xtol_rel: float = 1e-3, maxeval: int = 400, blocks: Sequence[Block | str] = blocks):
+                 xtol_rel: float = 1e-3, maxeval: int = 400, warmup_s: float = 0.0, blocks: Sequence[Block | str] = blocks):
         CapstanModel.__init__(self, mu_law=mu_law, blocks=blocks, tying=tying, robot=robot, n_starts=n_starts,
-                              seed=seed, xtol_rel=xtol_rel, maxeval=maxeval)
+                              seed=seed, xtol_rel=xtol_rel, maxeval=maxeval, warmup_s=warmup_s)
 
     cls = type(name.title().replace("-", ""), (CapstanModel,), {"name": name, "__init__": __init__, "__doc__": doc})
     cls.__module__ = __name__

@@ -90,6 +90,13 @@ class TransmissionInputs:
         return backbone_wrap(self.angles, self.geometry.alpha_0)
 
     @cached_property
+    def since_start(self) -> NDArray[np.float64]:
+        """Time since the start of each frame's trajectory [s], shape (T,)."""
+        idx = np.arange(self.n_frames)
+        last_reset = np.maximum.accumulate(np.where(self.reset, idx, 0))
+        return (idx - last_reset) * self.dt
+
+    @cached_property
     def cos_wrap(self) -> NDArray[np.float64]:
         """``cos(alpha_k)``, shape (T, N-1) (cached: calibration evaluates it thousands of times)."""
         return np.cos(self.wrap)
