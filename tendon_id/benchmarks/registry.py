@@ -6,7 +6,23 @@ from tendon_id.benchmarks.recovery import format_recovery, recovery
 from tendon_id.benchmarks.tables import table1, table2
 from tendon_id.errors import ConfigError
 
-BENCHMARKS = {"table1": table1, "table2": table2, "recovery": recovery}
+def _lazy(module: str, func: str):
+    def run(**kwargs):
+        import importlib
+
+        return getattr(importlib.import_module(module), func)(**kwargs)
+
+    run.__name__ = func
+    return run
+
+
+BENCHMARKS = {
+    "table1": table1,
+    "table2": table2,
+    "recovery": recovery,
+    "sweep": _lazy("tendon_id.benchmarks.sweep", "sweep"),
+    "latency": _lazy("tendon_id.benchmarks.latency", "latency"),
+}
 PRESETS = ("fast", "paper")
 
 

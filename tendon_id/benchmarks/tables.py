@@ -19,10 +19,28 @@ from tendon_id.metrics import frame_weighted
 from tendon_id.progress import progress_bar
 from tendon_id.zoo import make
 
-#: Physics rows of Table I and the reference rows of Table II (learned rows join with the learners).
+#: Rows of Table I (single passage) and Table II (cascade), in the paper's order.
 TABLE1_METHODS = ("proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth")
-TABLE2_METHODS = ("proximal", "capstan-nonsmooth")
+TABLE2_METHODS = ("proximal", "capstan-nonsmooth", "pg-chtc w/o physics regularizer", "pg-chtc w/o temporal residual", "pg-chtc")
 METRIC_KEYS = ("rmse", "r2", "max_error")
+
+#: Table rows that are not plain zoo names: (zoo name, settings).
+ROW_MODELS = {
+    "pg-chtc w/o physics regularizer": ("pg-chtc", {"physics_reg": False}),
+    "pg-chtc w/o temporal residual": ("pg-chtc", {"temporal_residual": False}),
+}
+
+
+def model_factory(preset: str, seed: int = 0) -> Callable:
+    """Builds the model of a table row; learned models get the benchmark's preset and seed."""
+
+    def build(method: str):
+        name, params = ROW_MODELS.get(method, (method, {}))
+        cls = make(name).__class__
+        extra = {k: v for k, v in (("preset", preset), ("seed", seed), ("progress", False)) if k in cls._param_names()}
+        return make(name, **{**extra, **params})
+
+    return build
 
 
 def _mean_sd(ms: list[dict | None]) -> tuple[dict | None, dict | None]:
@@ -51,9 +69,10 @@ def _row(method: str, protocol: str, score: dict) -> dict:
 
 
 def table1(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0, repeats: int = 5,
-           methods: Sequence[str] = TABLE1_METHODS, factory: Callable = make, progress: bool | None = None) -> dict:
+           methods: Sequence[str] = TABLE1_METHODS, factory: Callable | None = None, progress: bool | None = None) -> dict:
     """Single-passage, unit-level test (paper Table I): calibrate on 70 % of trajectories, test on the rest."""
     t0 = time.perf_counter()
+    factory = factory or model_factory(preset, seed)
     rec = load(recipe, protocol="single-passage", progress=progress)
     per_split = []
     for s in progress_bar(range(seed, seed + repeats), desc="table1", enable=progress):
@@ -63,8 +82,8 @@ def table1(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0
             "seconds": time.perf_counter() - t0, "frames": {"train": train.n_frames, "test": test.n_frames}}
 
 
-def table2(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0, repeats: int = 5,
-           methods: Sequence[str] = TABLE2_METHODS, factory: Callable = make, progress: bool | None = None) -> dict:
+def table2(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0, repeats: int = 3,
+           methods: Sequence[str] = TABLE2_METHODS, factory: Callable | None = None, progress: bool | None = None) -> dict:
     """Cascade, open-loop logged-data evaluation (paper Table II), per protocol and frame-weighted overall.
 
     Analytic baselines are calibrated on the training and validation trajectories only and
@@ -72,11 +91,12 @@ def table2(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0
     intermediate joints (2..N-1), which the paper could not measure.
     """
     t0 = time.perf_counter()
+    factory = factory or model_factory(preset, seed)
     per_split = []
     for s in progress_bar(range(seed, seed + repeats), desc="table2", enable=progress):
         split = paper_split(recipe, s, progress=progress)
         rows = []
-        for method in methods:
+        for method in progress_bar(methods, desc=f"split {s}", enable=progress):
             model = factory(method).fit(split.calibration)
             scores = {p: model.score(split.test[p]) for p in TEST_PROTOCOLS}
             frames = [split.test[p].n_frames for p in TEST_PROTOCOLS]

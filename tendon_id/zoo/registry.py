@@ -5,6 +5,7 @@ from __future__ import annotations
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.base import TransmissionModel
 from tendon_id.zoo.capstan import CapstanConstMu, CapstanContact, CapstanModel, CapstanNonsmooth, CapstanSimple, ProximalModel
+from tendon_id.zoo.learned import PGCHTC
 
 _REGISTRY: dict[str, type[TransmissionModel]] = {}
 
@@ -15,7 +16,7 @@ def register(cls: type[TransmissionModel]) -> type[TransmissionModel]:
     return cls
 
 
-for _cls in (ProximalModel, CapstanSimple, CapstanContact, CapstanNonsmooth, CapstanConstMu, CapstanModel):
+for _cls in (ProximalModel, CapstanSimple, CapstanContact, CapstanNonsmooth, CapstanConstMu, CapstanModel, PGCHTC):
     register(_cls)
 
 

@@ -1,0 +1,166 @@
+"""The PG-CHTC cascade (paper Algorithm 1): one unit per guide, parameters tied across guides.
+
+Batch inference runs every guide once over whole sequences, vectorised over time and
+tendon sets; only the N - 1 guides are a Python loop, since guide k + 1 is fed by guide k.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from torch import Tensor, nn
+
+from learners.presets import UnitConfig
+from learners.unit import N_FEATURES, PGCHTMUnit
+
+
+@dataclass
+class CascadeInputs:
+    """What the cascade reads, per frame (built by the caller from a recording).
+
+    Attributes
+    ----------
+    sin_q : Tensor, shape (B, L, N-1, 4)
+        ``sin`` of the adjacent joint angles ``q_k = (theta_k, theta_{k+1})`` (paper Eq. (2)).
+    alpha : Tensor, shape (B, L, N-1)
+        Backbone wrap of each guide [rad] (paper Eq. (3)).
+    log_actuator : Tensor, shape (B, L, S, 3)
+        ``ln T[1, j, i]`` of the sets to propagate.
+    since_start : Tensor of int, shape (B, L)
+        Frames since the start of the trajectory (or of the chunk, if later): how far back
+        the temporal residual may look.
+    """
+
+    sin_q: Tensor
+    alpha: Tensor
+    log_actuator: Tensor
+    since_start: Tensor
+
+    def to(self, device) -> CascadeInputs:
+        return CascadeInputs(*(t.to(device) for t in (self.sin_q, self.alpha, self.log_actuator, self.since_start)))
+
+
+class Cascade(nn.Module):
+    """PG-CHTC: shared (``tied``) or per-guide PG-CHTM units chained over the guides.
+
+    Parameters
+    ----------
+    n_guides : int
+        ``N - 1``.
+    cfg : UnitConfig
+    tied : bool
+        One unit for every guide (the paper), or one per guide (identifiability comparison).
+    """
+
+    def __init__(self, n_guides: int, cfg: UnitConfig, tied: bool = True):
+        super().__init__()
+        self.n_guides = n_guides
+        self.cfg = cfg
+        self.tied = tied
+        self.units = nn.ModuleList(PGCHTMUnit(cfg) for _ in range(1 if tied else n_guides))
+        # Channel normalisation of the 8 unit inputs, fitted on training data (paper §III-C).
+        self.register_buffer("feature_mean", torch.zeros(N_FEATURES))
+        self.register_buffer("feature_std", torch.ones(N_FEATURES))
+
+    def unit(self, g: int) -> PGCHTMUnit:
+        return self.units[0 if self.tied else g]
+
+    def features(self, inp: CascadeInputs, g: int, log_t: Tensor) -> Tensor:
+        """Normalised unit inputs of guide ``g`` for the sets in ``log_t`` (B, L, S, 3): (B, L, S, 8)."""
+        shape = log_t.shape[:-1]
+        x = torch.cat([inp.sin_q[:, :, g, None, :].expand(*shape, 4), torch.cos(inp.alpha[:, :, g, None, None]).expand(*shape, 1),
+                       torch.exp(log_t)], dim=-1)
+        return (x - self.feature_mean) / self.feature_std
+
+    def forward(self, inp: CascadeInputs, sets: Tensor, *, residual: bool = True) -> tuple[Tensor, Tensor]:
+        """Propagate through every guide.
+
+        Parameters
+        ----------
+        inp : CascadeInputs
+        sets : Tensor of int, shape (S,)
+            0-based indices of the sets in ``inp.log_actuator``'s third axis.
+        residual : bool
+            Use ``g_phi`` (off in stage 1 of training).
+
+        Returns
+        -------
+        log_joint : Tensor, shape (B, L, S, 3)
+            ``ln T_hat[j, j, i]`` of each set.
+        log_ratio : Tensor, shape (B, L, N-1, S, 3)
+            ``ln r_data`` per guide (0 where the set does not pass the guide).
+        """
+        b, L = inp.log_actuator.shape[:2]
+        log_t = inp.log_actuator
+        log_ratio = inp.log_actuator.new_zeros((b, L, self.n_guides) + log_t.shape[2:])
+        lags = torch.arange(self.cfg.window, device=log_t.device)
+        valid = lags[None, None, :] <= inp.since_start[..., None]  # (B, L, window)
+        for g in range(self.n_guides):
+            active = sets > g  # set j (index j-1) passes guide k = g + 1 iff k < j
+            if not bool(active.any()):
+                break
+            x_t = log_t[:, :, active]
+            x = self.features(inp, g, x_t)  # (B, L, Sa, 8)
+            unit = self.unit(g)
+            lr = torch.log(unit.backbone(x))
+            if residual and unit.residual is not None:
+                sa = x.shape[2]
+                seq = x.permute(0, 2, 1, 3).reshape(b * sa, L, -1)
+                r_tr = unit.residual(seq, valid.repeat_interleave(sa, dim=0)).reshape(b, sa, L, 3).permute(0, 2, 1, 3)
+                lr = lr + torch.log1p(r_tr)
+            log_t = log_t.clone()
+            log_t[:, :, active] = x_t + lr
+            log_ratio[:, :, g, active] = lr
+        return log_t, log_ratio
+
+
+class StreamingCascade:
+    """Frame-by-frame inference with causal caches: O(1) work per frame (paper Algorithm 1).
+
+    Per guide and set it keeps the keys and values of the last ``h - 1`` frames of every
+    attention layer, so a new frame costs one backbone call and one attention step per
+    layer, batched over the sets at each guide.
+    """
+
+    def __init__(self, cascade: Cascade, n_sets: int):
+        self.cascade = cascade.eval()
+        self.n_sets = n_sets
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the history (call at the start of a trajectory)."""
+        c = self.cascade
+        p = next(c.parameters())
+        self.caches = []
+        for g in range(c.n_guides):
+            unit = c.unit(g)
+            n_streams = self.n_sets - (g + 1)
+            self.caches.append(unit.residual.empty_cache(n_streams, p.device, p.dtype) if unit.residual is not None else None)
+        self.n_seen = 0
+
+    @torch.no_grad()
+    def step(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor) -> Tensor:
+        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame.
+
+        Parameters
+        ----------
+        sin_q : Tensor, shape (N-1, 4)
+        alpha : Tensor, shape (N-1,)
+        log_actuator : Tensor, shape (N, 3)
+        """
+        c = self.cascade
+        log_t = log_actuator.clone()
+        n_valid = torch.full((1,), min(self.n_seen, c.cfg.window - 1), dtype=torch.long, device=log_t.device)
+        for g in range(c.n_guides):
+            x_t = log_t[g + 1 :]
+            x = torch.cat([sin_q[g].expand(x_t.shape[0], 4), torch.cos(alpha[g]).expand(x_t.shape[0], 1), torch.exp(x_t)], dim=-1)
+            x = (x - c.feature_mean) / c.feature_std
+            unit = c.unit(g)
+            lr = torch.log(unit.backbone(x))
+            if unit.residual is not None:
+                r_tr, self.caches[g] = unit.residual.step(x, self.caches[g], n_valid.expand(x.shape[0]))
+                lr = lr + torch.log1p(r_tr)
+            log_t[g + 1 :] = x_t + lr
+        self.n_seen += 1
+        return log_t

@@ -1,0 +1,162 @@
+"""The PG-CHTM unit (paper Section III-C): a static MLP backbone times a causal temporal residual.
+
+``r_data = (1 + r_TR) * r_MLP`` (paper Eq. (8)), with ``r_MLP = softplus(f_theta(x)) + 0.01``
+and ``r_TR = 0.5 tanh(g_phi(x_{t-h+1..t}))`` in ``(-0.5, 0.5)``.
+
+``g_phi`` is a strictly causal Transformer with sliding-window attention: at every
+layer a frame attends to itself and the ``h - 1`` frames before it, with a learned
+bias per head and lag instead of absolute positions.  Being translation invariant,
+its per-frame computation can be cached, so streaming costs O(1) per frame and agrees
+with batch inference; with ``L`` layers an output can draw on ``L (h - 1) + 1`` frames.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import Tensor, nn
+from torch.nn import functional as F
+
+from learners.presets import UnitConfig
+
+N_FEATURES = 8  # [sin(q_k) (4), cos(alpha_k) (1), normalised T_k (3)], paper Eq. (7)
+EPSILON = 0.01  # paper: r_MLP = softplus(.) + 0.01
+
+
+class StaticBackbone(nn.Module):
+    """``f_theta``: Linear → BatchNorm1d → GELU per hidden layer, then softplus + 0.01 (paper §IV-B)."""
+
+    def __init__(self, hidden: tuple[int, ...] = (512, 512, 256)):
+        super().__init__()
+        layers: list[nn.Module] = []
+        width = N_FEATURES
+        for h in hidden:
+            layers += [nn.Linear(width, h), nn.BatchNorm1d(h), nn.GELU()]
+            width = h
+        self.body = nn.Sequential(*layers)
+        self.head = nn.Linear(width, 3)
+
+    def forward(self, x: Tensor) -> Tensor:
+        """Ratios ``r_MLP > 0.01``, shape ``x.shape[:-1] + (3,)``."""
+        flat = x.reshape(-1, N_FEATURES)
+        out = self.head(self.body(flat))
+        return (F.softplus(out) + EPSILON).reshape(*x.shape[:-1], 3)
+
+
+class SlidingWindowAttention(nn.Module):
+    """Causal multi-head self-attention over the last ``window`` frames, with a learned lag bias."""
+
+    def __init__(self, d_model: int, n_heads: int, window: int):
+        super().__init__()
+        self.h = n_heads
+        self.dk = d_model // n_heads
+        self.window = window
+        self.qkv = nn.Linear(d_model, 3 * d_model)
+        self.out = nn.Linear(d_model, d_model)
+        self.lag_bias = nn.Parameter(torch.zeros(n_heads, window))  # bias[h, lag], lag = 0..window-1
+
+    def _split(self, x: Tensor) -> Tensor:
+        return x.view(*x.shape[:-1], self.h, self.dk)
+
+    def forward(self, x: Tensor, valid: Tensor) -> Tensor:
+        """Whole sequences at once.
+
+        Parameters
+        ----------
+        x : Tensor, shape (B, L, d)
+        valid : Tensor of bool, shape (B, L, window)
+            ``valid[b, t, lag]``: frame ``t - lag`` exists in the same trajectory.
+        """
+        b, L, _ = x.shape
+        q, k, v = self.qkv(x).chunk(3, dim=-1)
+        q, k, v = self._split(q), self._split(k), self._split(v)  # (B, L, H, dk)
+        pad = self.window - 1
+        kp = F.pad(k, (0, 0, 0, 0, pad, 0))  # (B, L+pad, H, dk)
+        vp = F.pad(v, (0, 0, 0, 0, pad, 0))
+        # Keys of lags 0..window-1 for every frame: (B, L, window, H, dk), lag 0 first.
+        kw = kp.unfold(1, self.window, 1).permute(0, 1, 4, 2, 3).flip(2)
+        vw = vp.unfold(1, self.window, 1).permute(0, 1, 4, 2, 3).flip(2)
+        scores = torch.einsum("blhd,blwhd->blhw", q, kw) / math.sqrt(self.dk) + self.lag_bias
+        scores = scores.masked_fill(~valid[:, :, None, :], float("-inf"))
+        att = torch.softmax(scores, dim=-1)
+        y = torch.einsum("blhw,blwhd->blhd", att, vw).reshape(b, L, -1)
+        return self.out(y)
+
+    def step(self, x: Tensor, k_cache: Tensor, v_cache: Tensor, n_valid: Tensor) -> tuple[Tensor, Tensor, Tensor]:
+        """One new frame per stream, from cached keys and values of the frames before it.
+
+        Parameters
+        ----------
+        x : Tensor, shape (S, d)
+        k_cache, v_cache : Tensor, shape (S, window - 1, H, dk)
+            Lag 1 first.
+        n_valid : Tensor of int, shape (S,)
+            How many cached frames belong to the current trajectory.
+        """
+        q, k, v = self.qkv(x).chunk(3, dim=-1)
+        q, k, v = self._split(q), self._split(k), self._split(v)  # (S, H, dk)
+        kw = torch.cat([k[:, None], k_cache], dim=1)  # (S, window, H, dk)
+        vw = torch.cat([v[:, None], v_cache], dim=1)
+        scores = torch.einsum("shd,swhd->shw", q, kw) / math.sqrt(self.dk) + self.lag_bias
+        lags = torch.arange(self.window, device=x.device)
+        scores = scores.masked_fill((lags[None, :] > n_valid[:, None])[:, None, :], float("-inf"))
+        y = torch.einsum("shw,swhd->shd", torch.softmax(scores, dim=-1), vw).reshape(x.shape[0], -1)
+        return self.out(y), kw[:, :-1], vw[:, :-1]
+
+
+class _Layer(nn.Module):
+    def __init__(self, cfg: UnitConfig):
+        super().__init__()
+        self.norm1 = nn.LayerNorm(cfg.d_model)
+        self.attn = SlidingWindowAttention(cfg.d_model, cfg.n_heads, cfg.window)
+        self.norm2 = nn.LayerNorm(cfg.d_model)
+        self.ff = nn.Sequential(nn.Linear(cfg.d_model, cfg.d_ff), nn.GELU(), nn.Linear(cfg.d_ff, cfg.d_model))
+
+
+class TemporalResidual(nn.Module):
+    """``g_phi``: pre-norm causal Transformer layers with sliding-window attention; ``0.5 tanh`` head."""
+
+    def __init__(self, cfg: UnitConfig):
+        super().__init__()
+        self.cfg = cfg
+        self.embed = nn.Linear(N_FEATURES, cfg.d_model)
+        self.layers = nn.ModuleList(_Layer(cfg) for _ in range(cfg.n_layers))
+        self.norm = nn.LayerNorm(cfg.d_model)
+        self.head = nn.Linear(cfg.d_model, 3)
+        nn.init.zeros_(self.head.weight)  # start as "no residual": r_TR = 0
+        nn.init.zeros_(self.head.bias)
+
+    def forward(self, x: Tensor, valid: Tensor) -> Tensor:
+        """``r_TR`` for every frame of sequences ``x`` (B, L, 8), shape (B, L, 3)."""
+        h = self.embed(x)
+        for layer in self.layers:
+            h = h + layer.attn(layer.norm1(h), valid)
+            h = h + layer.ff(layer.norm2(h))
+        return 0.5 * torch.tanh(self.head(self.norm(h)))
+
+    def step(self, x: Tensor, cache: list[tuple[Tensor, Tensor]], n_valid: Tensor) -> tuple[Tensor, list[tuple[Tensor, Tensor]]]:
+        """``r_TR`` of one new frame per stream (S, 8), updating the per-layer key/value caches."""
+        h = self.embed(x)
+        new_cache = []
+        for layer, (kc, vc) in zip(self.layers, cache):
+            a, kc, vc = layer.attn.step(layer.norm1(h), kc, vc, n_valid)
+            h = h + a
+            h = h + layer.ff(layer.norm2(h))
+            new_cache.append((kc, vc))
+        return 0.5 * torch.tanh(self.head(self.norm(h))), new_cache
+
+    def empty_cache(self, n_streams: int, device=None, dtype=None) -> list[tuple[Tensor, Tensor]]:
+        c = self.cfg
+        shape = (n_streams, c.window - 1, c.n_heads, c.d_model // c.n_heads)
+        return [(torch.zeros(shape, device=device, dtype=dtype), torch.zeros(shape, device=device, dtype=dtype)) for _ in range(c.n_layers)]
+
+
+class PGCHTMUnit(nn.Module):
+    """One physics-guided cable-hole transmission unit: ``r_data = (1 + r_TR) r_MLP`` (paper Eq. (8))."""
+
+    def __init__(self, cfg: UnitConfig):
+        super().__init__()
+        self.cfg = cfg
+        self.backbone = StaticBackbone(cfg.hidden)
+        self.residual = TemporalResidual(cfg) if cfg.temporal_residual else None
