@@ -115,17 +115,32 @@ class Cascade(nn.Module):
         return log_t, log_ratio
 
 
+def _folded_backbone(backbone) -> list[tuple[Tensor, Tensor]]:
+    """``f_theta``'s layers with each eval-mode BatchNorm folded into the Linear before it."""
+    layers = list(backbone.body)
+    out = []
+    for i in range(0, len(layers), 3):
+        lin, bn = layers[i], layers[i + 1]
+        scale = bn.weight / torch.sqrt(bn.running_var + bn.eps)
+        out.append(((lin.weight * scale[:, None]).T.contiguous(), (lin.bias - bn.running_mean) * scale + bn.bias))
+    out.append((backbone.head.weight.T.contiguous(), backbone.head.bias.clone()))
+    return out
+
+
 class StreamingCascade:
     """Frame-by-frame inference with causal caches: O(1) work per frame (paper Algorithm 1).
 
     Per guide and set it keeps the keys and values of the last ``h - 1`` frames of every
-    attention layer, so a new frame costs one backbone call and one attention step per
-    layer, batched over the sets at each guide.
+    attention layer in ring buffers, so a new frame costs one backbone call and one
+    attention step per layer, batched over the sets at each guide.  The backbone's
+    BatchNorm layers are folded into its Linear layers once, at construction.
     """
 
     def __init__(self, cascade: Cascade, n_sets: int):
         self.cascade = cascade.eval()
         self.n_sets = n_sets
+        with torch.no_grad():
+            self.backbones = [_folded_backbone(u.backbone) for u in cascade.units]
         self.reset()
 
     def reset(self) -> None:
@@ -139,7 +154,15 @@ class StreamingCascade:
             self.caches.append(unit.residual.empty_cache(n_streams, p.device, p.dtype) if unit.residual is not None else None)
         self.n_seen = 0
 
-    @torch.no_grad()
+    def _backbone(self, g: int, x: Tensor) -> Tensor:
+        layers = self.backbones[0 if self.cascade.tied else g]
+        h = x
+        for w, b in layers[:-1]:
+            h = torch.nn.functional.gelu(torch.addmm(b, h, w))
+        w, b = layers[-1]
+        return torch.nn.functional.softplus(torch.addmm(b, h, w)) + 0.01
+
+    @torch.inference_mode()
     def step(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor) -> Tensor:
         """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame.
 
@@ -152,12 +175,14 @@ class StreamingCascade:
         c = self.cascade
         log_t = log_actuator.clone()
         n_valid = torch.full((1,), min(self.n_seen, c.cfg.window - 1), dtype=torch.long, device=log_t.device)
+        geo = torch.cat([sin_q, torch.cos(alpha)[:, None]], dim=1)  # (N-1, 5): the geometric inputs of every guide
+        mean, std = c.feature_mean, c.feature_std
         for g in range(c.n_guides):
             x_t = log_t[g + 1 :]
-            x = torch.cat([sin_q[g].expand(x_t.shape[0], 4), torch.cos(alpha[g]).expand(x_t.shape[0], 1), torch.exp(x_t)], dim=-1)
-            x = (x - c.feature_mean) / c.feature_std
+            x = torch.cat([geo[g].expand(x_t.shape[0], 5), torch.exp(x_t)], dim=1)
+            x = (x - mean) / std
+            lr = torch.log(self._backbone(g, x))
             unit = c.unit(g)
-            lr = torch.log(unit.backbone(x))
             if unit.residual is not None:
                 r_tr, self.caches[g] = unit.residual.step(x, self.caches[g], n_valid.expand(x.shape[0]))
                 lr = lr + torch.log1p(r_tr)

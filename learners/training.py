@@ -113,7 +113,7 @@ def _run_stage(cascade: Cascade, params, train: Sequences, val: Sequences, weigh
                 continue  # BatchNorm needs two frames
             loss, parts = _batch_loss(cascade, b, weights, residual)
             if not torch.isfinite(loss):
-                raise TrainingError(f"{desc}: the loss became {float(loss)} at epoch {epoch + 1} (parts {parts}); "
+                raise TrainingError(f"{desc}: the loss became {float(loss.detach())} at epoch {epoch + 1} (parts {parts}); "
                                     "lower the learning rate or check the data for non-positive tensions")
             opt.zero_grad(set_to_none=True)
             loss.backward()

@@ -1,0 +1,145 @@
+"""PG-CHTC in the zoo: contract, streaming equals batch, save/load, no intermediate truth, ablations."""
+
+import numpy as np
+import pytest
+import torch
+
+from learners import Cascade, CascadeInputs, preset
+from learners.loss import LossWeights, pgchtc_loss
+from learners.training import TrainingError
+from tendon_id import zoo
+from tendon_id.data import Recording
+from tendon_id.datasets import load_recipe
+from tendon_id.errors import ConfigError, TendonIdError
+from tendon_id.sim import simulate
+
+
+@pytest.fixture(scope="module")
+def data():
+    r = load_recipe("snake12-paper")
+    train = simulate(r, "posterior-3", frames=800, seed=0).recording
+    test = simulate(r, "planned-paths", frames=320, seed=1).recording
+    return train, test
+
+
+@pytest.fixture(scope="module")
+def fitted(data):
+    train, _ = data
+    return zoo.make("pg-chtc", preset="tiny", prior={"A": [0.1, 0.1, 0.1], "B": [0.2, 0.2, 0.2]}, progress=False).fit(train)
+
+
+def test_fit_predict_contract(fitted, data):
+    _, test = data
+    n = test.n_modules
+    pred = fitted.predict(test)
+    chain = fitted.predict_chain(test)
+    assert pred.shape == (test.n_frames, n, 3) and chain.shape == (test.n_frames, n, n, 3)
+    assert np.all(np.isfinite(pred)) and np.all(pred > 0)
+    np.testing.assert_array_equal(pred[:, 0], test.actuator[:, 0])
+    np.testing.assert_allclose(chain[:, np.arange(n), np.arange(n)], pred, rtol=1e-12)
+    assert fitted.history_["stage1"] and fitted.history_["stage2"]
+    np.testing.assert_array_equal(fitted.predict(test), pred)  # no side effects
+
+
+def test_streaming_equals_batch_on_a_held_out_trajectory(fitted, data):
+    _, test = data
+    traj = test.select([test.trajectories[0]])
+    batch = fitted.predict(traj)
+    stream = fitted.streamer()
+    out = np.stack([stream.step(traj.angles[t], traj.actuator[t]) for t in range(traj.n_frames)])
+    assert np.max(np.abs(out / batch - 1.0)) <= 1e-5
+    stream.reset()  # a new trajectory starts from an empty history
+    again = np.stack([stream.step(traj.angles[t], traj.actuator[t]) for t in range(5)])
+    np.testing.assert_allclose(again, out[:5], rtol=1e-6)
+
+
+def test_save_load_predict_identical_with_safetensors(fitted, data, tmp_path):
+    _, test = data
+    folder = fitted.save(tmp_path / "pg")
+    back = zoo.load(folder)
+    np.testing.assert_array_equal(back.predict(test), fitted.predict(test))
+    with np.load(folder / "arrays.npz", allow_pickle=False) as npz:
+        assert npz["weights_safetensors"].dtype == np.uint8
+
+
+def test_scrambled_intermediate_truth_changes_nothing(data):
+    train, test = data
+    frame = train.frame.copy()
+    rng = np.random.default_rng(0)
+    for j in range(1, train.n_modules):
+        for i in range(1, 4):
+            frame[f"tension_joint_{j}_{i}"] = rng.uniform(1, 300, size=len(frame))
+    scrambled = Recording(frame, train.meta)
+    kw = dict(preset="tiny", prior={"A": [0.1, 0.1, 0.1], "B": [0.2, 0.2, 0.2]}, progress=False)
+    a = zoo.make("pg-chtc", **kw).fit(train)
+    b = zoo.make("pg-chtc", **kw).fit(scrambled)
+    np.testing.assert_array_equal(a.predict(test), b.predict(test))
+
+
+def test_ablations_and_per_guide_variant(data):
+    train, test = data
+    kw = dict(preset="tiny", prior={"A": [0.1, 0.1, 0.1], "B": [0.2, 0.2, 0.2]}, progress=False)
+    no_tr = zoo.make("pg-chtc", temporal_residual=False, **kw).fit(train)
+    assert all(u.residual is None for u in no_tr.cascade_.units) and not no_tr.history_["stage2"]
+    per_guide = zoo.make("pg-chtc", tied=False, **kw).fit(train)
+    assert len(per_guide.cascade_.units) == train.n_modules - 1
+    assert per_guide.predict(test).shape == (test.n_frames, test.n_modules, 3)
+    no_phys = zoo.make("pg-chtc", physics_reg=False, **kw)
+    assert no_phys._weights().lam == 0 and no_phys._weights().lam_s == 0
+
+
+def test_loss_terms_match_eqs_11_to_15():
+    lt_hat, lt = torch.tensor([[1.0, 2.0, 3.0]]), torch.tensor([[1.5, 2.0, 2.0]])
+    lr = torch.tensor([[[0.1, 0.0, 0.0], [0.3, 0.0, 0.0]]])
+    lp = torch.zeros_like(lr)
+    alpha = torch.tensor([[0.2, 0.7]])
+    w = LossWeights(lam=2.0, lam_s=0.5, eta_w=3.0)
+    loss, parts = pgchtc_loss(lt_hat, lt, lr, lp, alpha, w)
+    data = 0.25 + 0 + 1.0
+    phys = 0.01 + 0.09
+    smooth = np.exp(-3.0 * 0.25) * 0.04
+    assert parts["data"] == pytest.approx(data) and parts["phys"] == pytest.approx(phys) and parts["smooth"] == pytest.approx(smooth)
+    assert float(loss) == pytest.approx(data + 2.0 * phys + 0.5 * smooth)
+
+
+def test_unit_outputs_respect_eq_8_bounds():
+    torch.manual_seed(0)
+    c = Cascade(3, preset("tiny").unit).eval()
+    for u in c.units:
+        torch.nn.init.normal_(u.residual.head.weight, std=5.0)
+    L = 30
+    inp = CascadeInputs(torch.randn(1, L, 3, 4), torch.rand(1, L, 3), torch.log(100 + torch.rand(1, L, 4, 3)), torch.arange(L)[None])
+    with torch.no_grad():
+        _, log_ratio = c(inp, torch.arange(4))
+        r_mlp = c.units[0].backbone((torch.randn(50, 8)))
+    assert torch.all(r_mlp > 0.01)
+    r = torch.exp(log_ratio[:, :, 0, 1:])  # guide 1, sets 2..4
+    assert torch.all(r > 0)
+
+
+def test_history_window_is_checked(data):
+    train, _ = data
+    short = train.select([train.trajectories[0]]).frame.iloc[:3].copy()
+    rec = Recording(short, train.meta)
+    with pytest.raises(TendonIdError, match="window|frames"):
+        zoo.make("pg-chtc", preset="tiny", progress=False).fit(Recording.concat([rec, train.select(train.trajectories[1:])]))
+
+
+def test_non_finite_loss_stops_with_a_message(data, monkeypatch):
+    import learners.training as T
+
+    train, _ = data
+    real = T.pgchtc_loss
+
+    def broken(*a, **k):
+        loss, parts = real(*a, **k)
+        return loss * float("nan"), parts
+
+    monkeypatch.setattr(T, "pgchtc_loss", broken)
+    with pytest.raises(TendonIdError, match="loss became nan"):
+        zoo.make("pg-chtc", preset="tiny", prior={"A": [0.1] * 3, "B": [0.2] * 3}, progress=False).fit(train)
+
+
+def test_unknown_preset_is_a_config_error(data):
+    with pytest.raises(ConfigError, match="preset"):
+        zoo.make("pg-chtc", preset="huge").fit(data[0])
