@@ -160,6 +160,9 @@ def benchmark(
     seed: int = typer.Option(0, "--seed", help="Seed of the first data split."),
     repeats: Optional[int] = typer.Option(None, "--repeats", help="Random splits to average over (tables; default 5 for table1, 3 for table2)."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the result as JSON (DESIGN §10 shape)."),
+    backend: str = typer.Option("loky", "--backend", help="joblib backend of the sweep's jobs (loky, threading, or a registered dask/ray)."),
+    jobs: int = typer.Option(1, "--jobs", help="Parallel jobs of the sweep (joblib's n_jobs; -1: all cores)."),
+    points: int = typer.Option(5, "--points", help="Grid values per parameter of the sweep (log-spaced, operating point included)."),
 ) -> None:
     """Reproduce a table of the paper on simulated data."""
     from tendon_id.benchmarks.registry import format_table, run_benchmark
@@ -171,6 +174,10 @@ def benchmark(
         kwargs["repeats"] = repeats
     if recipe:
         kwargs["recipe"] = recipe
+    if name == "sweep":
+        kwargs.update(seed=seed, backend=backend, n_jobs=jobs, points=points)
+    if name == "latency":
+        kwargs.update(seed=seed)
     result = run_benchmark(name, preset=preset, **kwargs)
     typer.echo(format_table(result))
     if json_out:
@@ -182,12 +189,13 @@ def benchmark(
 def demo(
     out: Path = typer.Option(Path("out"), "--out", help="Folder for the demo's report."),
     recipe: str = typer.Option("snake12-paper", "--recipe", help="Recipe to run the demo on."),
-    frames: Optional[int] = typer.Option(None, "--frames", help="Frames per protocol (default: the demo's small sizes)."),
+    frames: Optional[int] = typer.Option(None, "--frames", help="Frames per protocol in the summary (default: the demo's small sizes)."),
+    models: bool = typer.Option(True, "--models/--no-models", help="Train PG-CHTC (fast) and calibrate capstan-nonsmooth for the comparison."),
 ) -> None:
-    """The main job on the default recipe: simulate it and write OUT/summary.html."""
+    """The main job on the default recipe: simulate it, compare capstan-nonsmooth with PG-CHTC, write OUT/summary.html."""
     from tendon_id.demo import run_demo
 
-    path = run_demo(out, recipe=recipe, frames=frames)
+    path = run_demo(out, recipe=recipe, frames=frames, models=models)
     typer.echo(f"wrote {path}")
 
 

@@ -39,6 +39,14 @@ def format_table(result: dict) -> str:
     """The rows as an aligned text table (terminal and intermediate joints)."""
     if result["benchmark"] == "recovery":
         return format_recovery(result)
+    if result["benchmark"] == "latency":
+        from tendon_id.benchmarks.latency import format_latency
+
+        return format_latency(result)
+    if result["benchmark"] == "sweep":
+        from tendon_id.benchmarks.sweep import format_sweep
+
+        return format_sweep(result)
     head = f"{'method':22s} {'protocol':15s} {'RMSE [N]':>9s} {'+-sd':>6s} {'R2':>7s} {'MaxErr':>8s} | {'joints RMSE':>11s} {'R2':>7s}"
     reps = result["rows"][0].get("repeats", 1) if result["rows"] else 1
     lines = [f"{result['benchmark']} ({result.get('recipe', '')}, preset {result['preset']}, mean over {reps} splits, "

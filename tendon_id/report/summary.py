@@ -119,3 +119,4 @@ def summary_page(recordings: Sequence[Recording], title: str = "tendon-id record
 def write_summary(recordings: Sequence[Recording], path: str | os.PathLike, title: str = "tendon-id recording summary") -> Path:
     """Write the summary page of ``recordings`` to ``path`` (atomically)."""
     return summary_page(recordings, title).write(path)
+

@@ -6,7 +6,7 @@ from tendon_id.cli import main
 
 
 def test_demo_writes_a_self_contained_summary(tmp_path, capsys):
-    code = main(["demo", "--out", str(tmp_path / "out"), "--frames", "600"])
+    code = main(["demo", "--out", str(tmp_path / "out"), "--frames", "600", "--no-models"])
     assert code == 0, capsys.readouterr().err
     page = (tmp_path / "out" / "summary.html").read_text()
     assert page.startswith("<!DOCTYPE html>")
@@ -16,3 +16,22 @@ def test_demo_writes_a_self_contained_summary(tmp_path, capsys):
     for name in ("terminal-only", "posterior-3", "posterior-6", "planned-paths"):
         assert name in page
     assert "http://" not in page and "https://" not in page
+
+
+def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypatch):
+    # The full demo trains PG-CHTC (fast preset); here the tiny preset keeps the test short.
+    import tendon_id.zoo as zoo
+
+    real_make = zoo.make
+
+    def small(name, **kw):
+        if name == "pg-chtc":
+            kw["preset"] = "tiny"
+        return real_make(name, **kw)
+
+    monkeypatch.setattr(zoo, "make", small)
+    code = main(["demo", "--out", str(tmp_path / "out"), "--frames", "400"])
+    assert code == 0, capsys.readouterr().err
+    page = (tmp_path / "out" / "summary.html").read_text()
+    assert "PG-CHTC" in page and "capstan-nonsmooth" in page and "intermediate joints RMSE" in page
+    assert len(re.findall(r'src="data:image/png;base64,', page)) == 1 + 2 * 4 + 2
