@@ -20,7 +20,7 @@ from tendon_id.progress import progress_bar
 from tendon_id.zoo import make
 
 #: Rows of Table I (single passage) and Table II (cascade), in the paper's order.
-TABLE1_METHODS = ("proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth")
+TABLE1_METHODS = ("proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth", "transformer", "lstm", "mlp", "pg-chtc")
 TABLE2_METHODS = ("proximal", "capstan-nonsmooth", "pg-chtc w/o physics regularizer", "pg-chtc w/o temporal residual", "pg-chtc")
 METRIC_KEYS = ("rmse", "r2", "max_error")
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.base import TransmissionModel
+from tendon_id.zoo.baselines import LSTMBaseline, MLPBaseline, TransformerBaseline
 from tendon_id.zoo.capstan import CapstanConstMu, CapstanContact, CapstanModel, CapstanNonsmooth, CapstanSimple, ProximalModel
 from tendon_id.zoo.learned import PGCHTC
 
@@ -16,7 +17,8 @@ def register(cls: type[TransmissionModel]) -> type[TransmissionModel]:
     return cls
 
 
-for _cls in (ProximalModel, CapstanSimple, CapstanContact, CapstanNonsmooth, CapstanConstMu, CapstanModel, PGCHTC):
+for _cls in (ProximalModel, CapstanSimple, CapstanContact, CapstanNonsmooth, CapstanConstMu, CapstanModel, MLPBaseline, LSTMBaseline,
+             TransformerBaseline, PGCHTC):
     register(_cls)
 
 

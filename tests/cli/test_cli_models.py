@@ -54,12 +54,12 @@ def test_calibrate_per_guide_shapes(recording, tmp_path, capsys):
 
 
 def test_benchmark_table1_json(tmp_path, capsys):
-    code, out, err = run(capsys, "benchmark", "table1", "--json", str(tmp_path / "t1.json"))
+    code, out, err = run(capsys, "benchmark", "table1", "--repeats", "1", "--json", str(tmp_path / "t1.json"))
     assert code == 0, err
     doc = json.loads((tmp_path / "t1.json").read_text())
     assert doc["benchmark"] == "table1" and doc["preset"] == "fast" and doc["seconds"] > 0
     methods = [r["method"] for r in doc["rows"]]
-    assert methods == ["proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth"]
+    assert methods == ["proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth", "transformer", "lstm", "mlp", "pg-chtc"]
     for r in doc["rows"]:
         assert r["protocol"] == "single-passage" and set(r["terminal"]) >= {"rmse", "r2", "max_error"}
     assert "capstan-nonsmooth" in out
