@@ -42,7 +42,7 @@ from torch import Tensor, nn
 
 from learners.presets import PRESETS as UNIT_PRESETS
 from learners.training import TrainingError
-from learners.unit import SlidingWindowAttention
+from learners.unit import SlidingWindowAttention, gelu_mlp_body
 
 KINDS = ("mlp", "lstm", "transformer")
 
@@ -153,12 +153,7 @@ def baseline_config(kind: str, preset: str, n_inputs: int, window: int = 20) -> 
 class _MLPCore(nn.Module):
     def __init__(self, n_in: int, hidden: tuple[int, ...]):
         super().__init__()
-        layers: list[nn.Module] = []
-        width = n_in
-        for h in hidden:
-            layers += [nn.Linear(width, h), nn.BatchNorm1d(h), nn.GELU()]
-            width = h
-        self.body = nn.Sequential(*layers)
+        self.body, width = gelu_mlp_body(n_in, hidden)
         self.head = nn.Linear(width, 3)
 
     def forward(self, x: Tensor, valid: Tensor | None = None) -> Tensor:

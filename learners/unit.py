@@ -24,17 +24,22 @@ N_FEATURES = 8  # [sin(q_k) (4), cos(alpha_k) (1), normalised T_k (3)], paper Eq
 EPSILON = 0.01  # paper: r_MLP = softplus(.) + 0.01
 
 
+def gelu_mlp_body(n_in: int, hidden: tuple[int, ...]) -> tuple[nn.Sequential, int]:
+    """Linear → BatchNorm1d → GELU per hidden layer (paper §IV-B's ``f_theta`` body); returns it and its width."""
+    layers: list[nn.Module] = []
+    width = n_in
+    for h in hidden:
+        layers += [nn.Linear(width, h), nn.BatchNorm1d(h), nn.GELU()]
+        width = h
+    return nn.Sequential(*layers), width
+
+
 class StaticBackbone(nn.Module):
     """``f_theta``: Linear → BatchNorm1d → GELU per hidden layer, then softplus + 0.01 (paper §IV-B)."""
 
     def __init__(self, hidden: tuple[int, ...] = (512, 512, 256)):
         super().__init__()
-        layers: list[nn.Module] = []
-        width = N_FEATURES
-        for h in hidden:
-            layers += [nn.Linear(width, h), nn.BatchNorm1d(h), nn.GELU()]
-            width = h
-        self.body = nn.Sequential(*layers)
+        self.body, width = gelu_mlp_body(N_FEATURES, hidden)
         self.head = nn.Linear(width, 3)
 
     def forward(self, x: Tensor) -> Tensor:

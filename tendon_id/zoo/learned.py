@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-import sys
 from collections.abc import Sequence
 from dataclasses import asdict
 
@@ -16,6 +14,7 @@ from learners.presets import UnitConfig, preset as get_preset
 from learners.training import Sequences, TrainingError, fit_feature_norm, train_two_stage
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
+from tendon_id.progress import progress_bar
 from tendon_id.geometry import RobotGeometry
 from tendon_id.zoo.base import TransmissionModel
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
@@ -35,15 +34,8 @@ def _sin_q(angles: np.ndarray) -> np.ndarray:
 
 
 def _tqdm_epochs(enable: bool | None):
-    if enable is None:
-        enable = sys.stderr.isatty()
-    if not enable:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        return None
-    return lambda it, desc: tqdm(it, desc=desc, leave=False, file=sys.stderr)
+    """Epoch-bar factory for the training loop (a bar on a terminal, nothing elsewhere)."""
+    return lambda it, desc: progress_bar(it, desc=desc, enable=enable)
 
 
 class PGCHTC(TransmissionModel):
