@@ -42,7 +42,7 @@ from torch import Tensor, nn
 
 from learners.presets import PRESETS as UNIT_PRESETS
 from learners.training import TrainingError
-from learners.unit import SlidingWindowAttention, gelu_mlp_body
+from learners.unit import SlidingWindowLayer, gelu_mlp_body
 
 KINDS = ("mlp", "lstm", "transformer")
 
@@ -172,24 +172,11 @@ class _LSTMCore(nn.Module):
         return self.head(h)
 
 
-class _EncoderLayer(nn.Module):
-    def __init__(self, cfg: BaselineConfig):
-        super().__init__()
-        self.norm1 = nn.LayerNorm(cfg.d_model)
-        self.attn = SlidingWindowAttention(cfg.d_model, cfg.n_heads, cfg.window)
-        self.norm2 = nn.LayerNorm(cfg.d_model)
-        self.ff = nn.Sequential(nn.Linear(cfg.d_model, cfg.d_ff), nn.GELU(), nn.Linear(cfg.d_ff, cfg.d_model))
-
-    def forward(self, h: Tensor, valid: Tensor) -> Tensor:
-        h = h + self.attn(self.norm1(h), valid)
-        return h + self.ff(self.norm2(h))
-
-
 class _TransformerCore(nn.Module):
     def __init__(self, cfg: BaselineConfig):
         super().__init__()
         self.embed = nn.Linear(cfg.n_inputs, cfg.d_model)
-        self.layers = nn.ModuleList(_EncoderLayer(cfg) for _ in range(cfg.n_layers))
+        self.layers = nn.ModuleList(SlidingWindowLayer(cfg.d_model, cfg.n_heads, cfg.window, cfg.d_ff) for _ in range(cfg.n_layers))
         self.norm = nn.LayerNorm(cfg.d_model)
         self.head = nn.Linear(cfg.d_model, 3)
 

@@ -110,13 +110,19 @@ class SlidingWindowAttention(nn.Module):
         return self.out(y), kw[:, :-1], vw[:, :-1]
 
 
-class _Layer(nn.Module):
-    def __init__(self, cfg: UnitConfig):
+class SlidingWindowLayer(nn.Module):
+    """A pre-norm Transformer layer: sliding-window causal attention, then a GELU feed-forward."""
+
+    def __init__(self, d_model: int, n_heads: int, window: int, d_ff: int):
         super().__init__()
-        self.norm1 = nn.LayerNorm(cfg.d_model)
-        self.attn = SlidingWindowAttention(cfg.d_model, cfg.n_heads, cfg.window)
-        self.norm2 = nn.LayerNorm(cfg.d_model)
-        self.ff = nn.Sequential(nn.Linear(cfg.d_model, cfg.d_ff), nn.GELU(), nn.Linear(cfg.d_ff, cfg.d_model))
+        self.norm1 = nn.LayerNorm(d_model)
+        self.attn = SlidingWindowAttention(d_model, n_heads, window)
+        self.norm2 = nn.LayerNorm(d_model)
+        self.ff = nn.Sequential(nn.Linear(d_model, d_ff), nn.GELU(), nn.Linear(d_ff, d_model))
+
+    def forward(self, h: Tensor, valid: Tensor) -> Tensor:
+        h = h + self.attn(self.norm1(h), valid)
+        return h + self.ff(self.norm2(h))
 
 
 class TemporalResidual(nn.Module):
@@ -126,7 +132,7 @@ class TemporalResidual(nn.Module):
         super().__init__()
         self.cfg = cfg
         self.embed = nn.Linear(N_FEATURES, cfg.d_model)
-        self.layers = nn.ModuleList(_Layer(cfg) for _ in range(cfg.n_layers))
+        self.layers = nn.ModuleList(SlidingWindowLayer(cfg.d_model, cfg.n_heads, cfg.window, cfg.d_ff) for _ in range(cfg.n_layers))
         self.norm = nn.LayerNorm(cfg.d_model)
         self.head = nn.Linear(cfg.d_model, 3)
         nn.init.zeros_(self.head.weight)  # start as "no residual": r_TR = 0
@@ -136,8 +142,7 @@ class TemporalResidual(nn.Module):
         """``r_TR`` for every frame of sequences ``x`` (B, L, 8), shape (B, L, 3)."""
         h = self.embed(x)
         for layer in self.layers:
-            h = h + layer.attn(layer.norm1(h), valid)
-            h = h + layer.ff(layer.norm2(h))
+            h = layer(h, valid)
         return 0.5 * torch.tanh(self.head(self.norm(h)))
 
     def step(self, x: Tensor, cache: list[tuple[Tensor, Tensor]], n_valid: Tensor) -> tuple[Tensor, list[tuple[Tensor, Tensor]]]:

@@ -2,7 +2,6 @@
 
 import json
 import math
-import pickle
 import threading
 
 import pytest
@@ -64,8 +63,14 @@ def test_grids_are_log_spaced_and_hold_the_operating_point():
         sweep_mod.grid("nope", 5)
 
 
-def test_jobs_pickle_for_remote_workers():
-    assert pickle.loads(pickle.dumps(sweep_mod.sweep_job)) is sweep_mod.sweep_job
+def test_jobs_are_top_level_functions_for_remote_workers():
+    # A job travels to a Dask or Ray worker by reference (module + name), so it must be a
+    # module-level function that the worker can import back.
+    import importlib
+
+    job = sweep_mod.sweep_job
+    assert job.__qualname__ == job.__name__ == "sweep_job"
+    assert getattr(importlib.import_module(job.__module__), job.__name__) is job
 
 
 def test_sweep_shape_ratios_and_backend(patched):

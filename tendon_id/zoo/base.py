@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import abc
 import inspect
 import json
 import os
@@ -31,7 +32,7 @@ class NotFittedError(TendonIdError, RuntimeError):
     """A model was used before ``fit`` (or ``load``)."""
 
 
-class TransmissionModel:
+class TransmissionModel(abc.ABC):
     """Base class of the model zoo (see the module docstring)."""
 
     #: Registry name, e.g. ``"capstan-nonsmooth"``.
@@ -60,12 +61,14 @@ class TransmissionModel:
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}({args})"
 
-    # ---- fitting and prediction ------------------------------------------------
-    def fit(self, data: Recording | Sequence[Recording]) -> TransmissionModel:  # pragma: no cover - abstract
-        raise NotImplementedError
+    # ---- fitting and prediction (each model implements fit and predict_chain) ------------
+    @abc.abstractmethod
+    def fit(self, data: Recording | Sequence[Recording]) -> TransmissionModel:
+        """Fit on terminal-only labels; returns ``self``."""
 
-    def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abc.abstractmethod
+    def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
+        """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``."""
 
     def predict(self, data: Recording | Sequence[Recording]) -> np.ndarray:
         """Joint-side estimates ``T[j, j, i]`` [N], shape (T, N, 3)."""
@@ -116,12 +119,13 @@ class TransmissionModel:
         return out
 
     # ---- persistence -------------------------------------------------------------
-    def _state(self) -> tuple[dict, dict[str, np.ndarray]]:  # pragma: no cover - abstract
+    @abc.abstractmethod
+    def _state(self) -> tuple[dict, dict[str, np.ndarray]]:
         """Fitted state as (JSON-able dict, arrays)."""
-        raise NotImplementedError
 
-    def _restore(self, state: dict, arrays: dict[str, np.ndarray]) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abc.abstractmethod
+    def _restore(self, state: dict, arrays: dict[str, np.ndarray]) -> None:
+        """Set the fitted state from :meth:`_state`'s output."""
 
     def _json_params(self) -> dict:
         return {k: _jsonable(v) for k, v in self.get_params().items()}
