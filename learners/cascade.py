@@ -41,6 +41,11 @@ class CascadeInputs:
         return CascadeInputs(*(t.to(device) for t in (self.sin_q, self.alpha, self.log_actuator, self.since_start)))
 
 
+#: Bound on a single guide's log ratio.  Physical capstan ratios are within exp(+-1); the bound
+#: only keeps an untrained or diverging model finite in float32 over the whole chain.
+LOG_RATIO_BOUND = 6.0
+
+
 class Cascade(nn.Module):
     """PG-CHTC: shared (``tied``) or per-guide PG-CHTM units chained over the guides.
 
@@ -109,6 +114,7 @@ class Cascade(nn.Module):
                 seq = x.permute(0, 2, 1, 3).reshape(b * sa, L, -1)
                 r_tr = unit.residual(seq, valid.repeat_interleave(sa, dim=0)).reshape(b, sa, L, 3).permute(0, 2, 1, 3)
                 lr = lr + torch.log1p(r_tr)
+            lr = lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)
             log_t = log_t.clone()
             log_t[:, :, active] = x_t + lr
             log_ratio[:, :, g, active] = lr
@@ -186,6 +192,6 @@ class StreamingCascade:
             if unit.residual is not None:
                 r_tr, self.caches[g] = unit.residual.step(x, self.caches[g], n_valid.expand(x.shape[0]))
                 lr = lr + torch.log1p(r_tr)
-            log_t[g + 1 :] = x_t + lr
+            log_t[g + 1 :] = x_t + lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)
         self.n_seen += 1
         return log_t
