@@ -116,8 +116,7 @@ class _Baseline(TransmissionModel):
         """Per-trajectory inputs (and target log ratios), plus the stacked inputs."""
         inp = TransmissionInputs.from_recordings(recs, self.geometry_)
         x = self._features(inp, self.mode_)
-        starts = np.flatnonzero(inp.reset)
-        bounds = list(zip(starts, list(starts[1:]) + [inp.n_frames]))
+        bounds = inp.trajectory_bounds
         xs = [x[s:e] for s, e in bounds]
         ys = None
         if with_target:

@@ -90,6 +90,12 @@ class TransmissionInputs:
         return backbone_wrap(self.angles, self.geometry.alpha_0)
 
     @cached_property
+    def trajectory_bounds(self) -> list[tuple[int, int]]:
+        """``(start, end)`` frame indices of each trajectory, in order."""
+        starts = np.flatnonzero(self.reset)
+        return list(zip(starts.tolist(), starts[1:].tolist() + [self.n_frames]))
+
+    @cached_property
     def since_start(self) -> NDArray[np.float64]:
         """Time since the start of each frame's trajectory [s], shape (T,)."""
         idx = np.arange(self.n_frames)

@@ -121,8 +121,7 @@ class PGCHTC(TransmissionModel):
 
     def _sequences(self, recs: list[Recording], chunk: int, A: np.ndarray, B: np.ndarray, device) -> Sequences:
         inp = self._inputs(recs, self.geometry_)
-        starts = np.flatnonzero(inp.reset)
-        bounds = list(zip(starts, list(starts[1:]) + [inp.n_frames]))
+        bounds = inp.trajectory_bounds
         pieces = [(s, min(s + chunk, e)) for s0, e in bounds for s in range(s0, e, chunk)]
         L = max(e - s for s, e in pieces)
         n, c = inp.n_modules, len(pieces)
@@ -188,8 +187,7 @@ class PGCHTC(TransmissionModel):
 
     def _cascade_inputs(self, recs: list[Recording]) -> tuple[CascadeInputs, list[tuple[int, int]], TransmissionInputs]:
         inp = self._inputs(recs, self.geometry_)
-        starts = np.flatnonzero(inp.reset)
-        bounds = list(zip(starts, list(starts[1:]) + [inp.n_frames]))
+        bounds = inp.trajectory_bounds
         L = max(e - s for s, e in bounds)
         n, b = inp.n_modules, len(bounds)
         sin_q, alpha = _sin_q(inp.angles), inp.wrap
