@@ -80,6 +80,7 @@ def minimize(
     grad: Callable[[NDArray], NDArray] | None = None,
     ineq: Callable[[NDArray], NDArray] | None = None,
     ineq_jac: NDArray | None = None,
+    eq: tuple[NDArray, NDArray] | None = None,
     project: Callable[[NDArray], NDArray] | None = None,
     xtol_rel: float = 1e-8,
     ftol_rel: float = 1e-14,
@@ -102,6 +103,9 @@ def minimize(
         Vector of constraint values, feasible when all ``<= 0``.
     ineq_jac : ndarray, optional
         Constant Jacobian of ``ineq`` (linear constraints), for SLSQP.
+    eq : (ndarray, ndarray), optional
+        Linear equality constraints ``E x = e`` as ``(E, e)`` (SLSQP only; the profile
+        likelihoods of :mod:`tendon_id.identifiability` fix a combination this way).
     project : callable, optional
         Maps a slightly infeasible point onto the feasible set.
     xtol_rel, ftol_rel, maxeval :
@@ -116,8 +120,13 @@ def minimize(
     opt.set_upper_bounds(ub)
     best = {"x": None, "f": np.inf, "n": 0}
 
+    if eq is not None and grad is None:
+        raise ValueError("equality constraints need the gradient-based SLSQP (pass grad)")
+
     def feasible(x: NDArray) -> bool:
         if np.any(x < lb - CTOL) or np.any(x > ub + CTOL):
+            return False
+        if eq is not None and np.any(np.abs(eq[0] @ x - eq[1]) > 1e3 * CTOL):
             return False
         return ineq is None or bool(np.all(ineq(x) <= CTOL))
 
@@ -141,6 +150,15 @@ def minimize(
                 g[:] = ineq_jac
 
         opt.add_inequality_mconstraint(constraints, [CTOL] * m)
+    if eq is not None:
+        E, e = np.atleast_2d(np.asarray(eq[0], dtype=float)), np.atleast_1d(np.asarray(eq[1], dtype=float))
+
+        def equalities(result, x, g):
+            result[:] = E @ np.asarray(x, dtype=float) - e
+            if g.size > 0:
+                g[:] = E
+
+        opt.add_equality_mconstraint(equalities, [CTOL] * len(e))
     if grad is None:
         # COBYLA's first simplex: a tenth of each parameter's size, not of its (wide) bounds.
         opt.set_initial_step(np.maximum(0.1 * np.abs(np.asarray(x0, dtype=float)), 1e-3 * (ub - lb)))

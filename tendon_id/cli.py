@@ -186,6 +186,36 @@ def benchmark(
 
 
 @app.command()
+def identifiability(
+    data: list[Path] = typer.Option(None, "--data", help="Recording(s) with terminal labels; repeat for several."),
+    out: Path = typer.Option(Path("identifiability.html"), "--out", help="Self-contained HTML report."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the JSON summary (DESIGN §10 shape)."),
+    model: str = typer.Option("auto", "--model", help="auto, capstan-contact or capstan-simple (smooth structure analysed)."),
+    noise_n: Optional[float] = typer.Option(None, "--noise-n", help="Load-cell noise in N (default: the recording's metadata, else 1 N)."),
+    learned: bool = typer.Option(False, "--learned", help="Also train tied and per-guide PG-CHTC (fast preset; minutes)."),
+    seeds: int = typer.Option(3, "--seeds", help="Seeds of the learned comparison."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the samplers and the frame subset."),
+) -> None:
+    """What terminal-only data determines: tied against per-guide laws, bands, and what to measure next."""
+    from tendon_id.identifiability import StudySettings, analyse
+    from tendon_id.report.identifiability import write_report
+
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise TendonIdError(f"--out {out}: the report is an HTML file (.html)")
+    if seeds < 1:
+        raise TendonIdError("--seeds must be at least 1")
+    recs = _read_all(data)
+    settings = StudySettings(model=model, noise_n=noise_n, seed=seed)
+    result = analyse(recs, settings, learned=learned, learned_seeds=seeds)
+    path = write_report(result, out, json_out)
+    js = result.to_json()
+    typer.echo(f"tied: rank {js['tied']['rank']}/{js['tied']['n_params']}; per-guide: rank {js['per_guide']['rank']}/"
+               f"{js['per_guide']['n_params']} ({js['per_guide']['n_unidentifiable']} unidentifiable directions)")
+    typer.echo(f"instrument joint {js['advice']['instrument_joint']}; excite joints {js['advice']['excite_joints']}")
+    typer.echo(f"wrote {path}" + (f" and {json_out}" if json_out else ""))
+
+
+@app.command()
 def demo(
     out: Path = typer.Option(Path("out"), "--out", help="Folder for the demo's report."),
     recipe: str = typer.Option("snake12-paper", "--recipe", help="Recipe to run the demo on."),

@@ -21,6 +21,15 @@ from tendon_id.report.summary import summary_page
 DEMO_FRAMES = {"terminal-only": 5000, "posterior-3": 5000, "posterior-6": 3000, "planned-paths": 5000}
 
 
+def write_identifiability(rec, path: Path, *, progress: bool | None = None) -> Path:
+    """The identifiability report (and its JSON beside it) of one recording."""
+    from tendon_id.identifiability import analyse
+    from tendon_id.report.identifiability import write_report
+
+    result = analyse(rec, progress=progress)
+    return write_report(result, path, path.with_suffix(".json"))
+
+
 def run_demo(out: str | os.PathLike = "out", *, recipe: str = DEFAULT_RECIPE, frames: int | None = None, models: bool = True,
              progress: bool | None = None) -> Path:
     """Build the demo and write ``out/summary.html``.
@@ -34,7 +43,8 @@ def run_demo(out: str | os.PathLike = "out", *, recipe: str = DEFAULT_RECIPE, fr
     frames : int, optional
         Frames per protocol in the summary instead of :data:`DEMO_FRAMES`.
     models : bool
-        Also train PG-CHTC and calibrate capstan-nonsmooth (the slow part, about a minute).
+        Also train PG-CHTC and calibrate capstan-nonsmooth (the slow part, about a minute),
+        and write the identifiability report of the terminal-only data, linked from the page.
     progress : bool, optional
         Progress bars (default: on a terminal).
 
@@ -57,5 +67,10 @@ def run_demo(out: str | os.PathLike = "out", *, recipe: str = DEFAULT_RECIPE, fr
         }
         add_comparison(page, {p: split.test[p] for p in TEST_PROTOCOLS}, fitted,
                        "Capstan-nonsmooth against PG-CHTC on held-out trajectories (paper Table II split)")
+        terminal_only = next(r for r in recs if r.protocol == "terminal-only")
+        ident = write_identifiability(terminal_only, out / "identifiability.html", progress=progress)
+        page.heading("Identifiability")
+        page.link(ident.name, ident.name, before="What the terminal-only data can and cannot tell (tied against per-guide laws, "
+                  "the intermediate-tension ambiguity band, which joint to instrument next): ", after=".")
     page.paragraph(f"Built in {time.perf_counter() - t0:.0f} s.", cls="note")
     return page.write(out / "summary.html")

@@ -44,6 +44,11 @@ class HtmlPage:
         c = f' class="{cls}"' if cls else ""
         self._parts.append(f"<p{c}>{html.escape(text)}</p>")
 
+    def link(self, text: str, href: str, before: str = "", after: str = "") -> None:
+        """A paragraph with one link (a relative ``href`` keeps a report folder movable)."""
+        self._parts.append(f"<p>{html.escape(before)}<a href=\"{html.escape(href, quote=True)}\">{html.escape(text)}</a>"
+                           f"{html.escape(after)}</p>")
+
     def table(self, header: list[str], rows: list[list[object]]) -> None:
         head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
         body = "".join("<tr>" + "".join(f"<td>{html.escape(_fmt(v))}</td>" for v in row) + "</tr>" for row in rows)

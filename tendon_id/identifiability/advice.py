@@ -1,0 +1,82 @@
+"""What to measure next: which joint to instrument (D-optimal) and which joints to excite.
+
+Instrumenting joint ``j`` adds the labels ``ln T[1, j] - ln T[j, j] = x_j(t) . theta``
+(set ``j`` passes guides ``1..j-1``), so its Fisher information adds
+``X_j^T W_j X_j / sigma^2``.  The D-optimal joint maximises
+``sum_i log det(F_i + F_j,i + F_0)`` over the tendons ``i``, with ``F_0 = I / s^2`` the
+weak prior that keeps the determinant finite in the null space (``s`` =
+:data:`~tendon_id.identifiability.sampler.FLAT_SCALE`; Atkinson, Donev & Tobias 2007,
+"Optimum experimental designs", ch. 10).  The expected shrinkage of the band is
+the linearised one: the mean over frames and intermediate joints of
+``sqrt(x_l^T (F + F_0)^-1 x_l)`` before and after.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.identifiability.problem import LawProblem
+from tendon_id.identifiability.sampler import FLAT_SCALE
+
+
+def _joint_weight(problem: LawProblem, joint: int, tendon: int, theta: NDArray) -> NDArray:
+    """Delta-method weights [N^2] of a label at ``joint``, its tension predicted by ``theta``."""
+    t1 = problem.inputs.actuator[:, joint - 1, tendon]
+    tj = t1 * np.exp(-problem.joint_design(joint) @ theta)
+    return 1.0 / (1.0 / t1**2 + 1.0 / tj**2)
+
+
+def _linear_band_sd(problem: LawProblem, cov: NDArray, frames: NDArray) -> float:
+    """Mean linearised sd of ``ln T[j, j]`` over ``frames`` and joints ``2..N-1``."""
+    sds = []
+    for j in range(2, problem.n_guides + 1):
+        X = problem.joint_design(j)[frames]
+        sds.append(np.sqrt(np.maximum(np.einsum("tp,pq,tq->t", X, cov, X), 0.0)).mean())
+    return float(np.mean(sds))
+
+
+def instrument_scores(problem: LawProblem, thetas: list[NDArray], sigmas: list[float], frames: NDArray) -> list[dict]:
+    """D-criterion and expected band shrinkage for instrumenting each intermediate joint.
+
+    Parameters
+    ----------
+    problem : LawProblem
+        Usually the per-guide problem (the tied law is already determined).
+    thetas, sigmas : per tendon
+        Fitted law and residual noise [N].
+    frames : ndarray of int
+        Frames over which the band is averaged.
+
+    Returns
+    -------
+    list of dict
+        ``joint``, ``log_det`` (summed over tendons) and ``expected_shrinkage`` (fraction of
+        the mean linearised band sd removed), one per joint ``2..N-1``.
+    """
+    p = problem.n_params
+    F0 = np.eye(p) / FLAT_SCALE**2
+    base = [problem.precision(i, sigmas[i]) + F0 for i in range(3)]
+    before = np.mean([_linear_band_sd(problem, np.linalg.inv(base[i]), frames) for i in range(3)])
+    out = []
+    for j in range(2, problem.n_guides + 1):
+        Xj = problem.joint_design(j)
+        logdet, after = 0.0, []
+        for i in range(3):
+            F = base[i] + problem.precision(i, sigmas[i], design=Xj, weight=_joint_weight(problem, j, i, thetas[i]))
+            logdet += float(np.linalg.slogdet(F)[1])
+            after.append(_linear_band_sd(problem, np.linalg.inv(F), frames))
+        out.append({"joint": j, "log_det": logdet, "expected_shrinkage": float(1.0 - np.mean(after) / before)})
+    return out
+
+
+def excite_joints(per_guide_sd_mu0: NDArray, max_joints: int = 3) -> list[int]:
+    """Joints whose guide's ``mu(0)`` is undetermined (infinite sd), else the worst-determined few.
+
+    ``per_guide_sd_mu0`` has shape (K,) (worst over tendons); guide ``k`` sits at joint ``k``.
+    """
+    sd = np.asarray(per_guide_sd_mu0, dtype=float)
+    free = [int(k) + 1 for k in np.flatnonzero(~np.isfinite(sd))]
+    if free:
+        return free
+    return [int(k) + 1 for k in np.argsort(-sd)[:max_joints]]

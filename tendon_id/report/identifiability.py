@@ -1,0 +1,332 @@
+"""The identifiability report: one self-contained HTML page and the JSON of DESIGN §10."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from tendon_id.atomic import write_text_atomic
+from tendon_id.identifiability.analysis import IdentifiabilityResult
+from tendon_id.identifiability.band import ambiguity_band
+from tendon_id.identifiability.profile import THRESHOLD_95
+from tendon_id.report.html import HtmlPage
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def spectrum_figure(result: IdentifiabilityResult):
+    """Fisher eigenvalues (log scale) of the tied and per-guide laws, per tendon."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
+    for ax, (tying, st) in zip(axes, result.studies.items()):
+        for i, s in enumerate(st.spectra):
+            ev = np.maximum(s.eigenvalues, 1e-300)
+            ax.semilogy(np.arange(1, len(ev) + 1), ev, "o-", ms=3, label=f"tendon {i + 1} (rank {s.rank}/{s.n_params})")
+        ax.set_title(f"{tying}: Fisher-information eigenvalues")
+        ax.set_xlabel("eigen-direction (largest first)")
+        ax.set_ylabel("eigenvalue [1/unit²]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    return fig
+
+
+def profile_figure(result: IdentifiabilityResult):
+    """Profile likelihoods: the tied law's A, B, mu(0), and each guide's mu(0) (per-guide, tendon 1)."""
+    plt = _plt()
+    tied = result.studies["tied"]
+    per = result.studies["per-guide"]
+    fig, axes = plt.subplots(1, 4, figsize=(13, 3.2))
+    for ax, kind in zip(axes[:3], ("A", "B", "mu0")):
+        for i, profs in enumerate(tied.profiles):
+            p = next(q for q in profs if q.name.startswith(kind + "_t"))
+            ax.plot(p.values - p.estimate, p.delta, "o-", ms=3, label=f"tendon {i + 1} ({p.verdict})")
+        ax.axhline(THRESHOLD_95, color="k", ls="--", lw=1)
+        ax.set_title(f"tied {kind}")
+        ax.set_xlabel(f"{kind} − estimate")
+        ax.set_ylim(0, 3 * THRESHOLD_95)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6)
+    axes[0].set_ylabel("Δ(−2 ln L)")
+    ax = axes[3]
+    for p in per.profiles[0]:
+        if p.name.startswith("mu0"):
+            style = ":" if p.verdict.startswith("structurally") else "-"
+            ax.plot(p.values, p.delta, style, lw=1, label=p.name.split("_")[1])
+    ax.axhline(THRESHOLD_95, color="k", ls="--", lw=1)
+    ax.set_ylim(0, 3 * THRESHOLD_95)
+    ax.set_title("per-guide mu(0), tendon 1 (dotted: structural)")
+    ax.set_xlabel("mu(0) = A + B")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=5, ncol=2)
+    return fig
+
+
+def posterior_figure(result: IdentifiabilityResult):
+    """Tied posterior draws of (A, B) per tendon: the sloppy A − B ridge at a tight A + B."""
+    plt = _plt()
+    tied = result.studies["tied"]
+    fig, axes = plt.subplots(1, 4, figsize=(13, 3.2))
+    for i, ax in enumerate(axes[:3]):
+        d = tied.draws[i]
+        ax.plot(d[:, 0], d[:, 1], ".", ms=1.5, alpha=0.4)
+        ax.set_xlabel("A [-]")
+        ax.set_ylabel("B [-]")
+        ax.set_title(f"tendon {i + 1}: corr(A, B) = {tied.correlation(i)[0, 1]:.4f}")
+        ax.grid(alpha=0.3)
+    ax = axes[3]
+    c = result.studies["per-guide"].correlation(0)
+    im = ax.imshow(c, cmap="RdBu_r", vmin=-1, vmax=1)
+    ax.set_title("per-guide posterior correlation, tendon 1", fontsize=8)
+    k = c.shape[0] // 2
+    ax.set_xticks([0, k - 1, k, 2 * k - 1], ["A_g1", f"A_g{k}", "B_g1", f"B_g{k}"], fontsize=6)
+    ax.set_yticks([0, k - 1, k, 2 * k - 1], ["A_g1", f"A_g{k}", "B_g1", f"B_g{k}"], fontsize=6)
+    fig.colorbar(im, ax=ax, fraction=0.046)
+    return fig
+
+
+def excitation_figure(result: IdentifiabilityResult):
+    """Wrap range per guide (5–95 % box, min–max whisker) and correlation with the next guide."""
+    plt = _plt()
+    cov = result.excitation
+    g = np.array([c["guide"] for c in cov])
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 3.2))
+    ax.vlines(g, [c["min_deg"] for c in cov], [c["max_deg"] for c in cov], color="0.5")
+    ax.vlines(g, [c["p5_deg"] for c in cov], [c["p95_deg"] for c in cov], lw=8, color="C0", alpha=0.7)
+    ax.set_xlabel("guide k")
+    ax.set_ylabel("wrap alpha_k [deg]")
+    ax.set_title("excitation: range of wraps seen (box 5–95 %, line min–max)")
+    ax.grid(alpha=0.3)
+    corr = [np.nan if c["corr_next"] is None else c["corr_next"] for c in cov]
+    ax2.bar(g, corr, color="C1")
+    ax2.set_ylim(-1, 1)
+    ax2.set_xlabel("guide k")
+    ax2.set_ylabel("corr(alpha_k, alpha_k+1)")
+    ax2.set_title("correlation with the next guide (blank: constant wrap)")
+    ax2.grid(alpha=0.3)
+    return fig
+
+
+def band_figure(result: IdentifiabilityResult, truth: np.ndarray | None, joint: int, window: int = 400):
+    """The ambiguity band of one joint over a contiguous window, tied against per-guide, with truth."""
+    plt = _plt()
+    tied, per = result.studies["tied"], result.studies["per-guide"]
+    inputs = tied.problem.inputs
+    start = 0
+    frames = np.arange(start, min(start + window, inputs.n_frames))
+    t = inputs.clock[frames]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.3), sharey=False)
+    bands = {name: ambiguity_band(st.problem, st.draws, frames, seed=result.settings.seed)
+             for name, st in (("tied", tied), ("per-guide", per))}
+    for i, ax in enumerate(axes):
+        for name, color in (("per-guide", "C1"), ("tied", "C0")):
+            b = bands[name]
+            ax.fill_between(t, b.lo[:, joint - 1, i], b.hi[:, joint - 1, i], color=color, alpha=0.35, label=f"{name} 95 % band")
+        if truth is not None:
+            ax.plot(t, truth[frames, joint - 1, i], "k", lw=1, label="truth")
+        ax.set_title(f"joint {joint}, tendon {i + 1}")
+        ax.set_xlabel("t [s]")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("joint-side tension [N]")
+    axes[-1].legend(fontsize=7)
+    return fig
+
+
+def band_width_figure(result: IdentifiabilityResult):
+    """Mean band width per joint, tied against per-guide, and the truth coverage where known."""
+    plt = _plt()
+    tied, per = result.studies["tied"].band, result.studies["per-guide"].band
+    n = result.n_modules
+    j = np.arange(1, n + 1)
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 3.2))
+    ax.bar(j - 0.2, tied.per_joint_width(), width=0.4, label="tied")
+    ax.bar(j + 0.2, per.per_joint_width(), width=0.4, label="per-guide")
+    ax.set_xlabel("joint j")
+    ax.set_ylabel("mean 95 % band width [N]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    if result.coverage is not None:
+        ax2.plot(j[1:-1], result.coverage["tied"][1:-1], "o-", label="tied")
+        ax2.plot(j[1:-1], result.coverage["per-guide"][1:-1], "s-", label="per-guide")
+        ax2.axhline(0.95, color="k", ls="--", lw=1, label="nominal 95 %")
+        ax2.set_ylim(0, 1.02)
+        ax2.set_xlabel("joint j")
+        ax2.set_ylabel("truth inside the band")
+        ax2.legend(fontsize=8)
+        ax2.grid(alpha=0.3)
+    else:
+        ax2.text(0.5, 0.5, "no intermediate truth in this data", ha="center", va="center")
+        ax2.set_axis_off()
+    return fig
+
+
+def advice_figure(result: IdentifiabilityResult):
+    """D-criterion and expected band shrinkage per candidate joint, with the measured check."""
+    plt = _plt()
+    c = result.instrument
+    j = np.array([x["joint"] for x in c])
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 3.2))
+    ax.bar(j, [x["log_det"] for x in c], color=["C3" if x == result.instrument_joint else "C0" for x in j])
+    ax.set_ylim(min(x["log_det"] for x in c) - 5, max(x["log_det"] for x in c) + 5)
+    ax.set_xlabel("joint to instrument")
+    ax.set_ylabel("sum of log det(F) (D-criterion)")
+    ax.set_title("D-optimal joint (red)")
+    ax.grid(alpha=0.3)
+    ax2.plot(j, [x["expected_shrinkage"] for x in c], "o-", label="expected (linearised)")
+    if result.advice_check:
+        base = result.studies["per-guide"].band.mean_width()
+        ax2.plot([x["joint"] for x in result.advice_check], [1 - x["band_width_mean"] / base for x in result.advice_check],
+                 "s-", label="measured (with the joint's label)")
+    ax2.set_xlabel("joint to instrument")
+    ax2.set_ylabel("band shrinkage")
+    ax2.legend(fontsize=8)
+    ax2.grid(alpha=0.3)
+    return fig
+
+
+def _fmt_ci(ci) -> str:
+    lo, hi = ci
+    f = lambda v: "open" if v is None else f"{v:.4g}"  # noqa: E731
+    return f"[{f(lo)}, {f(hi)}]"
+
+
+def report_page(result: IdentifiabilityResult) -> HtmlPage:
+    """Build the page of one :class:`~tendon_id.identifiability.IdentifiabilityResult`."""
+    js = result.to_json()
+    tied, per = result.studies["tied"], result.studies["per-guide"]
+    page = HtmlPage(f"Identifiability report: {Path(result.source).name}")
+    page.paragraph(f"Data: {result.source} (protocol {result.protocol or 'unknown'}, {result.n_frames} frames, "
+                   f"N = {result.n_modules}). Structure analysed: {result.model_name}, fitted on the terminal labels only; "
+                   f"load-cell noise {result.noise_n:g} N. Built in {result.seconds:.0f} s.")
+
+    page.heading("What this data determines")
+    t, p = js["tied"], js["per_guide"]
+    page.paragraph(f"Tied law (one (A_i, B_i) per tendon): rank {t['rank']} of {t['n_params']} "
+                   f"({'full rank' if t['rank'] == t['n_params'] else 'rank-deficient'}), Fisher condition number "
+                   f"{t['condition_number_identifiable']:.3g}.")
+    page.paragraph(f"Per-guide law (one (A, B) per guide and tendon): rank {p['rank']} of {p['n_params']}: "
+                   f"{p['n_unidentifiable']} directions the terminal data cannot see at all.")
+    for w in p["unidentifiable"]:
+        page.paragraph("Unidentifiable: " + w, cls="note")
+    page.heading("Well-determined combinations", level=3)
+    post = t["posterior"]
+    for i in range(3):
+        a, b, m = post[f"A_t{i + 1}"], post[f"B_t{i + 1}"], post[f"mu0_t{i + 1}"]
+        page.paragraph(f"Tendon {i + 1}: mu(0) = A + B = {m['mean']:.4f} ± {m['sd']:.2g} is tight, while A = {a['mean']:.3f} ± "
+                       f"{a['sd']:.2g} and B = {b['mean']:.3f} ± {b['sd']:.2g} are sloppy (posterior correlation "
+                       f"{tied.correlation(i)[0, 1]:.4f}): at small wraps alpha cos(alpha) ≈ alpha, so only their sum is seen.")
+    for w in t["well_determined"][:2] + p["well_determined"][:2]:
+        page.paragraph("Best determined: " + w, cls="note")
+    page.figure(spectrum_figure(result), "Fisher-information eigen-spectrum: the per-guide law's eigenvalues fall off a cliff "
+                "where the data is blind (structural), and spread over many decades where it is sloppy.")
+
+    page.heading("Profile likelihoods")
+    rows = []
+    for st in (tied, per):
+        for i, profs in enumerate(st.profiles):
+            for q in profs:
+                if st is tied or q.name.startswith("mu0"):
+                    rows.append([st.tying, q.name, q.estimate, _fmt_ci(q.ci), q.verdict])
+    page.table(["law", "parameter", "estimate", "95 % interval", "verdict"], rows)
+    page.paragraph(f"Verdicts over all profiled parameters: tied {t['profile_verdicts']}, per-guide {p['profile_verdicts']}. "
+                   "Structural: in the Fisher null space (flat). Practical: the interval runs to the physical limit "
+                   "(mu ≥ 0 on [0, pi] and the sanity bounds). Threshold: 3.84 (95 %, Raue et al. 2009).", cls="note")
+    page.figure(profile_figure(result), "Profile likelihoods with the 95 % threshold (dashed).")
+
+    page.heading("Posterior widths and correlations")
+    if result.emcee is not None:
+        e = result.emcee
+        page.paragraph(f"emcee (tied, cross-check of the exact hit-and-run draws): corr(A, B) per tendon "
+                       f"{', '.join(f'{c:.4f}' for c in e['corr_A_B'])}; sd of mu(0) {', '.join(f'{s:.2g}' for s in e['mu0_sd'])}; "
+                       f"autocorrelation time {e['tau']:.0f} steps, {e['seconds']:.1f} s.")
+    page.paragraph(f"Hit-and-run convergence, largest split R-hat of mu(0) per tendon: tied "
+                   f"{', '.join(f'{r:.3f}' for r in tied.rhat)}, per-guide {', '.join(f'{r:.3f}' for r in per.rhat)} "
+                   "(values above 1.1 mean the flat per-guide directions were explored only roughly).", cls="note")
+    page.figure(posterior_figure(result), "Tied (A, B) draws, and the per-guide posterior correlation matrix.")
+
+    page.heading("Excitation coverage")
+    page.table(["guide", "min [deg]", "max [deg]", "sd [deg]", "distinct readings", "corr with next"],
+               [[c["guide"], c["min_deg"], c["max_deg"], c["sd_deg"], c["distinct"],
+                 "constant" if c["corr_next"] is None else c["corr_next"]] for c in result.excitation])
+    page.figure(excitation_figure(result), "What each guide saw.")
+
+    page.heading("Intermediate-tension ambiguity band")
+    b = js["bands"]
+    text = (f"Mean 95 % band over the intermediate joints: tied {b['tied_width_mean']:.2f} N, per-guide "
+            f"{b['per_guide_width_mean']:.2f} N (laws that fit the terminal data equally well, plus the actuator load cell's noise).")
+    if b["truth_coverage"] is not None:
+        text += (f" The simulator truth lies inside the tied band for {100 * b['truth_coverage']:.1f} % of frames "
+                 f"(worst joint {100 * b['truth_coverage_min_joint']:.1f} %), inside the per-guide band for "
+                 f"{100 * b['per_guide_truth_coverage']:.1f} %.")
+    page.paragraph(text)
+    mis = js["misspecification"]
+    if mis["misspecified"]:
+        page.paragraph(f"Misspecified: the terminal residual corresponds to {', '.join(f'{s:.1f}' for s in mis['residual_sigma_n'])} N "
+                       f"of noise against the load cells' {mis['nominal_noise_n']:g} N. The capstan law does not explain this data, "
+                       "so the bands describe the model's ambiguity, not the truth; "
+                       + ("the coverage above says how far off they are." if b["truth_coverage"] is not None else
+                          "an unmodelled effect is likely (see `tendon-id diagnose`)."))
+    else:
+        page.paragraph(f"The residual ({', '.join(f'{s:.2f}' for s in mis['residual_sigma_n'])} N) matches the load cells' "
+                       f"{mis['nominal_noise_n']:g} N noise: no sign of misspecification.")
+    page.figure(band_width_figure(result), "Band width per joint, and the share of frames whose truth it covers.")
+    page.figure(band_figure(result, result.truth, joint=max(2, result.n_modules // 2)),
+                "The band of a middle joint over the first frames, tied against per-guide.")
+
+    page.heading("Advice: what to measure next")
+    adv = js["advice"]
+    best = next(c for c in adv["candidates"] if c["joint"] == adv["instrument_joint"])
+    page.paragraph(f"Instrument joint {adv['instrument_joint']} (D-optimal): the linearised per-guide band is expected to "
+                   f"shrink by {100 * best['expected_shrinkage']:.0f} %. Excite joints {', '.join(map(str, adv['excite_joints']))}: "
+                   "their guides' mu(0) is the least determined (undetermined where the data held them still).")
+    if adv["check"]:
+        widths = {c["joint"]: c["band_width_mean"] for c in adv["check"]}
+        others = [w for j, w in widths.items() if j != adv["instrument_joint"]]
+        page.paragraph(f"Checked against the simulator truth: with joint {adv['instrument_joint']}'s label the mean per-guide band is "
+                       f"{widths[adv['instrument_joint']]:.2f} N, against {np.median(others):.2f} N for the median alternative "
+                       f"and {min(others):.2f} N for the best (joint {min((w, j) for j, w in widths.items() if j != adv['instrument_joint'])[1]}).")
+    page.figure(advice_figure(result), "Which joint to instrument.")
+
+    if result.learned is not None:
+        page.heading("The learned cascade: tied against per-guide PG-CHTC")
+        rows = []
+        for name, d in result.learned.items():
+            rows.append([name, d["seeds"], "-" if d["joint_rmse_mean"] is None else d["joint_rmse_mean"], d["seed_spread_mean_n"]])
+        page.table(["PG-CHTC", "seeds", "intermediate-joint RMSE [N]", "spread across seeds [N]"], rows)
+    return page
+
+
+def write_report(result: IdentifiabilityResult, out: str | os.PathLike, json_path: str | os.PathLike | None = None) -> Path:
+    """Write the HTML page (and the JSON summary) atomically."""
+    path = report_page(result).write(out)
+    if json_path is not None:
+        write_text_atomic(json_path, json.dumps(_finite(result.to_json()), indent=2, default=_json_default, allow_nan=False) + "\n")
+    return path
+
+
+def _finite(o):
+    """Non-finite floats become null: the JSON stays strict (scripts and CI read it)."""
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    if isinstance(o, (float, np.floating)):
+        return float(o) if np.isfinite(o) else None
+    return o
+
+
+def _json_default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
