@@ -127,7 +127,7 @@ def _tendon_words(names: list[str]) -> str:
 
 
 def describe_combination(v: NDArray, names: list[str], tol: float = 0.08) -> str:
-    """A linear combination ``v . theta`` in words.
+    """A linear combination ``v @ theta`` of the parameters, in words.
 
     Recognises the shapes that matter here: a single parameter, ``A + B`` of one guide
     (``mu(0)``), the sum of one kind over a run of guides, ``mu(0)`` summed over guides,

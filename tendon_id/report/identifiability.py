@@ -200,7 +200,7 @@ def _fmt_ci(ci) -> str:
 
 
 def report_page(result: IdentifiabilityResult) -> HtmlPage:
-    """Build the page of one :class:`~tendon_id.identifiability.IdentifiabilityResult`."""
+    """Build the report page of one identifiability result (:func:`~tendon_id.identifiability.analyse`)."""
     js = result.to_json()
     tied, per = result.studies["tied"], result.studies["per-guide"]
     page = HtmlPage(f"Identifiability report: {Path(result.source).name}")
