@@ -218,3 +218,16 @@ def test_identifiability_command_rejects_bad_input_with_exit_2(tmp_path, capsys,
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not (tmp_path / "r.html").exists()
+
+
+def test_the_learned_comparison_reports_error_and_seed_spread_for_both_tyings():
+    from tendon_id.identifiability.analysis import learned_comparison
+
+    rec = simulate(load_recipe("snake12-noise-only"), "terminal-only", frames=1200, seed=2).recording
+    out = learned_comparison([rec.fitting_view()], rec.joint_truth, seeds=2, preset="tiny", progress=False)
+    assert set(out) == {"tied", "per_guide"}
+    for d in out.values():
+        assert d["seeds"] == 2 and len(d["joint_rmse"]) == 2
+        assert np.isfinite(d["joint_rmse_mean"]) and d["seed_spread_mean_n"] > 0
+        assert len(d["seed_spread_per_joint_n"]) == rec.n_modules
+        assert d["seed_spread_per_joint_n"][0] == 0.0  # joint 1 is the actuator side in every model
