@@ -66,7 +66,9 @@ def instrument_scores(problem: LawProblem, thetas: list[NDArray], sigmas: list[f
             F = base[i] + problem.precision(i, sigmas[i], design=Xj, weight=_joint_weight(problem, j, i, thetas[i]))
             logdet += float(np.linalg.slogdet(F)[1])
             after.append(_linear_band_sd(problem, np.linalg.inv(F), frames))
-        out.append({"joint": j, "log_det": logdet, "expected_shrinkage": float(1.0 - np.mean(after) / before)})
+        # No band at all (every wrap below the contact clearance: nothing to shrink) gives 0.
+        shrink = float(1.0 - np.mean(after) / before) if before > 0 else 0.0
+        out.append({"joint": j, "log_det": logdet, "expected_shrinkage": shrink})
     return out
 
 

@@ -7,7 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from tendon_id.data import Recording
-from tendon_id.report.html import HtmlPage
+from tendon_id.report.html import HtmlPage, pyplot
 
 
 def estimates_figure(rec: Recording, predictions: Mapping[str, np.ndarray], joints: tuple[int, ...] = (4, 8, 12), tendon: int = 1):
@@ -23,10 +23,7 @@ def estimates_figure(rec: Recording, predictions: Mapping[str, np.ndarray], join
     tendon : int
         1-based tendon.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     truth = rec.joint_truth
     fig, axes = plt.subplots(1, len(joints), figsize=(4.2 * len(joints), 3.2), sharey=False)
@@ -46,10 +43,7 @@ def estimates_figure(rec: Recording, predictions: Mapping[str, np.ndarray], join
 
 def per_joint_rmse_figure(scores: Mapping[str, dict]):
     """RMSE at every joint for several models (needs simulator truth)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(7, 3.2))
     for k, (name, s) in enumerate(scores.items()):

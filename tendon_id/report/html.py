@@ -20,6 +20,16 @@ figure{margin:1em 0} figcaption{color:#555;font-size:.9em} img{max-width:100%}
 """
 
 
+def pyplot():
+    """``matplotlib.pyplot`` on the headless Agg backend (reports are drawn without a display)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
 def figure_to_base64(fig) -> str:
     """PNG bytes of a matplotlib figure as base64 text; closes the figure."""
     import matplotlib.pyplot as plt

@@ -12,21 +12,13 @@ from tendon_id.atomic import write_text_atomic
 from tendon_id.identifiability.analysis import IdentifiabilityResult
 from tendon_id.identifiability.band import ambiguity_band
 from tendon_id.identifiability.profile import THRESHOLD_95
-from tendon_id.report.html import HtmlPage
+from tendon_id.report.html import HtmlPage, pyplot
 
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def spectrum_figure(result: IdentifiabilityResult):
     """Fisher eigenvalues (log scale) of the tied and per-guide laws, per tendon."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
     for ax, (tying, st) in zip(axes, result.studies.items()):
         for i, s in enumerate(st.spectra):
@@ -42,7 +34,7 @@ def spectrum_figure(result: IdentifiabilityResult):
 
 def profile_figure(result: IdentifiabilityResult):
     """Profile likelihoods: the tied law's A, B, mu(0), and each guide's mu(0) (per-guide, tendon 1)."""
-    plt = _plt()
+    plt = pyplot()
     tied = result.studies["tied"]
     per = result.studies["per-guide"]
     fig, axes = plt.subplots(1, 4, figsize=(13, 3.2))
@@ -73,7 +65,7 @@ def profile_figure(result: IdentifiabilityResult):
 
 def posterior_figure(result: IdentifiabilityResult):
     """Tied posterior draws of (A, B) per tendon: the sloppy A − B ridge at a tight A + B."""
-    plt = _plt()
+    plt = pyplot()
     tied = result.studies["tied"]
     fig, axes = plt.subplots(1, 4, figsize=(13, 3.2))
     for i, ax in enumerate(axes[:3]):
@@ -96,7 +88,7 @@ def posterior_figure(result: IdentifiabilityResult):
 
 def excitation_figure(result: IdentifiabilityResult):
     """Wrap range per guide (5–95 % box, min–max whisker) and correlation with the next guide."""
-    plt = _plt()
+    plt = pyplot()
     cov = result.excitation
     g = np.array([c["guide"] for c in cov])
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 3.2))
@@ -118,7 +110,7 @@ def excitation_figure(result: IdentifiabilityResult):
 
 def band_figure(result: IdentifiabilityResult, truth: np.ndarray | None, joint: int, window: int = 400):
     """The ambiguity band of one joint over a contiguous window, tied against per-guide, with truth."""
-    plt = _plt()
+    plt = pyplot()
     tied, per = result.studies["tied"], result.studies["per-guide"]
     inputs = tied.problem.inputs
     start = 0
@@ -143,7 +135,7 @@ def band_figure(result: IdentifiabilityResult, truth: np.ndarray | None, joint: 
 
 def band_width_figure(result: IdentifiabilityResult):
     """Mean band width per joint, tied against per-guide, and the truth coverage where known."""
-    plt = _plt()
+    plt = pyplot()
     tied, per = result.studies["tied"].band, result.studies["per-guide"].band
     n = result.n_modules
     j = np.arange(1, n + 1)
@@ -171,7 +163,7 @@ def band_width_figure(result: IdentifiabilityResult):
 
 def advice_figure(result: IdentifiabilityResult):
     """D-criterion and expected band shrinkage per candidate joint, with the measured check."""
-    plt = _plt()
+    plt = pyplot()
     c = result.instrument
     j = np.array([x["joint"] for x in c])
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 3.2))

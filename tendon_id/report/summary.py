@@ -10,21 +10,13 @@ import numpy as np
 
 from tendon_id.data import Recording
 from tendon_id.geometry import RobotGeometry, backbone_wrap
-from tendon_id.report.html import HtmlPage
+from tendon_id.report.html import HtmlPage, pyplot
 
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def wrap_coverage_figure(recordings: Sequence[Recording]):
     """Box plot of the backbone wrap [deg] each guide saw, one colour per protocol."""
-    plt = _plt()
+    plt = pyplot()
     n = recordings[0].n_modules
     fig, ax = plt.subplots(figsize=(9, 3.4))
     width = 0.8 / len(recordings)
@@ -49,7 +41,7 @@ def wrap_coverage_figure(recordings: Sequence[Recording]):
 
 def tension_trace_figure(rec: Recording, trajectory: str | None = None):
     """Actuator-side, intermediate truth and terminal tensions of one trajectory, per tendon."""
-    plt = _plt()
+    plt = pyplot()
     traj = trajectory or rec.trajectories[0]
     mask = rec.trajectory_ids == traj
     t = rec.time[mask]
@@ -73,7 +65,7 @@ def tension_trace_figure(rec: Recording, trajectory: str | None = None):
 
 def actuator_vs_terminal_figure(rec: Recording):
     """Terminal joint-side against actuator-side tension of the terminal set, with the no-loss line."""
-    plt = _plt()
+    plt = pyplot()
     n = rec.n_modules
     fig, ax = plt.subplots(figsize=(4.6, 4.2))
     for i in range(3):

@@ -230,4 +230,4 @@ def test_the_learned_comparison_reports_error_and_seed_spread_for_both_tyings():
         assert d["seeds"] == 2 and len(d["joint_rmse"]) == 2
         assert np.isfinite(d["joint_rmse_mean"]) and d["seed_spread_mean_n"] > 0
         assert len(d["seed_spread_per_joint_n"]) == rec.n_modules
-        assert d["seed_spread_per_joint_n"][0] == 0.0  # joint 1 is the actuator side in every model
+        assert d["seed_spread_per_joint_n"][0] < 1e-9  # joint 1 is the actuator side in every model
