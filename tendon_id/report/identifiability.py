@@ -12,6 +12,7 @@ from tendon_id.atomic import write_text_atomic
 from tendon_id.identifiability.analysis import IdentifiabilityResult
 from tendon_id.identifiability.band import ambiguity_band
 from tendon_id.identifiability.profile import THRESHOLD_95
+from tendon_id.identifiability.spectrum import RANK_RTOL
 from tendon_id.report.html import HtmlPage, pyplot
 
 
@@ -21,9 +22,14 @@ def spectrum_figure(result: IdentifiabilityResult):
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
     for ax, (tying, st) in zip(axes, result.studies.items()):
+        floor = None
         for i, s in enumerate(st.spectra):
-            ev = np.maximum(s.eigenvalues, 1e-300)
+            # Numerically zero eigenvalues are drawn on a floor below the rank threshold.
+            floor = max(s.eigenvalues[0], 1e-300) * (RANK_RTOL**2) * 1e-3
+            ev = np.maximum(s.eigenvalues, floor)
             ax.semilogy(np.arange(1, len(ev) + 1), ev, "o-", ms=3, label=f"tendon {i + 1} (rank {s.rank}/{s.n_params})")
+        if floor is not None:
+            ax.axhline(floor * 1e3, color="k", ls=":", lw=1, label="rank threshold (zero below)")
         ax.set_title(f"{tying}: Fisher-information eigenvalues")
         ax.set_xlabel("eigen-direction (largest first)")
         ax.set_ylabel("eigenvalue [1/unit²]")
