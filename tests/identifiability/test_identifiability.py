@@ -231,3 +231,15 @@ def test_the_learned_comparison_reports_error_and_seed_spread_for_both_tyings():
         assert np.isfinite(d["joint_rmse_mean"]) and d["seed_spread_mean_n"] > 0
         assert len(d["seed_spread_per_joint_n"]) == rec.n_modules
         assert d["seed_spread_per_joint_n"][0] < 1e-9  # joint 1 is the actuator side in every model
+
+
+def test_data_without_truth_gets_a_report_with_no_coverage_and_no_check(tmp_path, noise_only):
+    from tendon_id.report.identifiability import write_report
+
+    quick = StudySettings(n_chains=16, n_steps=60, thin=5, band_frames=200, emcee=False)
+    result = analyse(noise_only.fitting_view(), quick)
+    js = result.to_json()
+    assert js["bands"]["truth_coverage"] is None and js["advice"]["check"] is None
+    page = write_report(result, tmp_path / "r.html", tmp_path / "r.json").read_text()
+    assert page.count('src="data:image/png;base64,') == 7 and "no intermediate truth" not in page.split("<figure>")[0]
+    assert json.loads((tmp_path / "r.json").read_text())["bands"]["truth_coverage"] is None
