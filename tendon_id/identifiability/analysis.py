@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.calibration import _fit_quadratic
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.identifiability.advice import excite_joints, instrument_scores
@@ -374,7 +375,6 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
     rng = np.random.default_rng(settings.seed + 1000)
     layout = problem.layout
     C, d = layout.constraints()
-    g = problem.n_groups
     out = []
     for j in range(2, problem.n_guides + 1):
         Xj = problem.joint_design(j)
@@ -388,8 +388,6 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
             M, b, _ = problem.quadratic(i, sigma)
             M = M + Xj.T @ (wj[:, None] * Xj) / sigma**2
             b = b + Xj.T @ (wj * yj) / sigma**2
-            from tendon_id.calibration import _fit_quadratic
-
             scale = np.sqrt(np.r_[problem.weight[:, i], wj] / np.mean(problem.weight[:, i]))
             X_all = np.vstack([problem.design, Xj]) * scale[:, None]
             y_all = np.r_[problem.log_drop[:, i], yj] * scale
