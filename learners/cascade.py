@@ -6,6 +6,7 @@ tendon sets; only the N - 1 guides are a Python loop, since guide k + 1 is fed b
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import torch
@@ -137,27 +138,36 @@ class StreamingCascade:
     """Frame-by-frame inference with causal caches: O(1) work per frame (paper Algorithm 1).
 
     Per guide and set it keeps the keys and values of the last ``h - 1`` frames of every
-    attention layer in ring buffers, so a new frame costs one backbone call and one
-    attention step per layer, batched over the sets at each guide.  The backbone's
-    BatchNorm layers are folded into its Linear layers once, at construction.
+    attention layer, so a new frame costs one backbone call and one attention step per
+    layer, batched over the sets at each guide.  The backbone's BatchNorm layers are
+    folded into its Linear layers once, at construction.
+
+    A frame is hundreds of small operations, so on a CPU their dispatch costs as much as
+    their arithmetic.  With ``compiled=True`` the whole frame (every guide, every layer) is
+    traced once into a frozen TorchScript graph, which runs the same operations in the
+    same order (the same rounding) with less overhead per operation; where tracing is not
+    possible the eager step is used.
     """
 
-    def __init__(self, cascade: Cascade, n_sets: int):
+    def __init__(self, cascade: Cascade, n_sets: int, compiled: bool = True):
         self.cascade = cascade.eval()
         self.n_sets = n_sets
         with torch.no_grad():
             self.backbones = [_folded_backbone(u.backbone) for u in cascade.units]
         self.reset()
+        self._graph = self._trace() if compiled else None
 
     def reset(self) -> None:
         """Forget the history (call at the start of a trajectory)."""
         c = self.cascade
         p = next(c.parameters())
-        self.caches = []
+        caches: list[Tensor] = []
         for g in range(c.n_guides):
             unit = c.unit(g)
-            n_streams = self.n_sets - (g + 1)
-            self.caches.append(unit.residual.empty_cache(n_streams, p.device, p.dtype) if unit.residual is not None else None)
+            if unit.residual is not None:
+                for k, v in unit.residual.empty_cache(self.n_sets - (g + 1), p.device, p.dtype):
+                    caches += [k, v]
+        self.caches = tuple(caches)
         self.n_seen = 0
 
     def _backbone(self, g: int, x: Tensor) -> Tensor:
@@ -167,6 +177,58 @@ class StreamingCascade:
             h = torch.nn.functional.gelu(torch.addmm(b, h, w))
         w, b = layers[-1]
         return torch.nn.functional.softplus(torch.addmm(b, h, w)) + 0.01
+
+    def _frame(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor, n_valid: Tensor,
+               caches: tuple[Tensor, ...]) -> tuple[Tensor, tuple[Tensor, ...]]:
+        """One frame from explicit state: the function both the eager and the traced step run."""
+        c = self.cascade
+        log_t = log_actuator
+        geo = torch.cat([sin_q, torch.cos(alpha)[:, None]], dim=1)  # (N-1, 5): the geometric inputs of every guide
+        mean, std = c.feature_mean, c.feature_std
+        new: list[Tensor] = []
+        k = 0
+        for g in range(c.n_guides):
+            x_t = log_t[g + 1 :]
+            x = torch.cat([geo[g].expand(x_t.shape[0], 5), torch.exp(x_t)], dim=1)
+            x = (x - mean) / std
+            lr = torch.log(self._backbone(g, x))
+            unit = c.unit(g)
+            if unit.residual is not None:
+                n = len(unit.residual.layers)
+                cache = [(caches[k + 2 * i], caches[k + 2 * i + 1]) for i in range(n)]
+                r_tr, cache = unit.residual.step(x, cache, n_valid.expand(x.shape[0]))
+                new += [t for pair in cache for t in pair]
+                k += 2 * n
+                lr = lr + torch.log1p(r_tr)
+            log_t = torch.cat([log_t[: g + 1], x_t + lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)], dim=0)
+        return log_t, tuple(new)
+
+    def _trace(self):
+        """The frame as a frozen TorchScript graph, or None where tracing fails."""
+        engine = self
+
+        class _Frame(nn.Module):
+            def __init__(self):
+                super().__init__()
+                self.cascade = engine.cascade  # its weights are the graph's parameters, frozen below
+
+            def forward(self, sin_q, alpha, log_actuator, n_valid, caches):
+                return engine._frame(sin_q, alpha, log_actuator, n_valid, caches)
+
+        c = self.cascade
+        p = next(c.parameters())
+        n = self.n_sets
+        example = (torch.zeros(n - 1, 4, dtype=p.dtype, device=p.device), torch.zeros(n - 1, dtype=p.dtype, device=p.device),
+                   torch.zeros(n, 3, dtype=p.dtype, device=p.device), torch.zeros(1, dtype=torch.long, device=p.device), self.caches)
+        try:
+            with torch.no_grad(), warnings.catch_warnings():
+                # TorchScript is deprecated in favour of torch.compile, which needs a C++ toolchain at
+                # run time; torch is pinned (2.13), and without TorchScript the eager step runs instead.
+                warnings.simplefilter("ignore", DeprecationWarning)
+                graph = torch.jit.trace(_Frame().eval(), example, check_trace=False)
+                return torch.jit.freeze(graph.eval())
+        except Exception:  # pragma: no cover - a backend without TorchScript: the eager step is exact too
+            return None
 
     @torch.inference_mode()
     def step(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor) -> Tensor:
@@ -178,20 +240,8 @@ class StreamingCascade:
         alpha : Tensor, shape (N-1,)
         log_actuator : Tensor, shape (N, 3)
         """
-        c = self.cascade
-        log_t = log_actuator.clone()
-        n_valid = torch.full((1,), min(self.n_seen, c.cfg.window - 1), dtype=torch.long, device=log_t.device)
-        geo = torch.cat([sin_q, torch.cos(alpha)[:, None]], dim=1)  # (N-1, 5): the geometric inputs of every guide
-        mean, std = c.feature_mean, c.feature_std
-        for g in range(c.n_guides):
-            x_t = log_t[g + 1 :]
-            x = torch.cat([geo[g].expand(x_t.shape[0], 5), torch.exp(x_t)], dim=1)
-            x = (x - mean) / std
-            lr = torch.log(self._backbone(g, x))
-            unit = c.unit(g)
-            if unit.residual is not None:
-                r_tr, self.caches[g] = unit.residual.step(x, self.caches[g], n_valid.expand(x.shape[0]))
-                lr = lr + torch.log1p(r_tr)
-            log_t[g + 1 :] = x_t + lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)
+        n_valid = torch.full((1,), min(self.n_seen, self.cascade.cfg.window - 1), dtype=torch.long, device=log_actuator.device)
+        run = self._graph if self._graph is not None else self._frame
+        log_t, self.caches = run(sin_q, alpha, log_actuator, n_valid, self.caches)
         self.n_seen += 1
         return log_t
