@@ -51,7 +51,9 @@ class StudySettings:
     band_frames : int
         Frames the band is evaluated on (a seeded subset of larger data).
     n_chains, n_steps, thin : int
-        Hit-and-run sampler (see :mod:`~tendon_id.identifiability.sampler`).
+        Hit-and-run sampler (see :mod:`~tendon_id.identifiability.sampler`). The defaults bring
+        the split R-hat of the per-guide ``mu(0)`` to about 1.1 on 50 000 terminal-only frames
+        (1.2-1.3 at 1500 steps), for about 10 s more.
     emcee : bool
         Also sample the tied posterior with emcee (widths, correlations, ESS) as a cross-check.
     check_advice : bool
@@ -63,8 +65,8 @@ class StudySettings:
     noise_n: float | None = None
     band_frames: int = 1000
     n_chains: int = 64
-    n_steps: int = 1500
-    thin: int = 25
+    n_steps: int = 4000
+    thin: int = 60
     emcee: bool = True
     check_advice: bool = True
     seed: int = 0
