@@ -12,7 +12,6 @@ textbook per-frame loop.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import time
@@ -20,6 +19,7 @@ import time
 import numpy as np
 
 from tendon_id import zoo
+from tendon_id.atomic import write_json_atomic
 from tendon_id.benchmarks.splits import paper_split
 from tendon_id.datasets import load_recipe
 from tendon_id.posterior import sample_posterior
@@ -83,8 +83,7 @@ def main() -> None:
         print(f"emcee posterior ({label}, {data.n_frames} frames, {len(post.names)} parameters): {post.seconds:.1f} s, "
               f"min ESS {post.ess.min():.0f}, max R-hat {post.rhat.max():.3f}, max tau {post.tau.max():.0f} steps")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=2)
+        write_json_atomic(args.json, out)
 
 
 if __name__ == "__main__":

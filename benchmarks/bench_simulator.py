@@ -10,13 +10,13 @@ naive per-frame Python loop of the same physics as the baseline (ratio reported)
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import time
 
 import numpy as np
 
+from tendon_id.atomic import write_json_atomic
 from tendon_id.datasets import load_recipe
 from tendon_id.sim import EFFECT_NAMES, simulate
 
@@ -87,8 +87,7 @@ def main() -> None:
     print(f"stick-slip transmission, 1000 frames: vectorised {t_vec * 1e3:.1f} ms vs naive loop {t_naive * 1e3:.1f} ms "
           f"= {t_naive / t_vec:.0f}x (agree: {agree})")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=2)
+        write_json_atomic(args.json, out)
 
 
 if __name__ == "__main__":

@@ -10,12 +10,12 @@ against the paper's Table II (48.522 / 73.075 / 32.699 N; R^2 -0.655 / -2.747 / 
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import time
 
 import numpy as np
 
+from tendon_id.atomic import write_json_atomic
 from tendon_id.datasets import load_recipe
 from tendon_id.metrics import tendon_metrics
 from tendon_id.sim import simulate
@@ -48,8 +48,7 @@ def main() -> None:
     secs = time.perf_counter() - t0
     print(f"every seed within a factor 1.5: {all(r['within_1_5'] for r in rows)}   ({secs:.1f} s, {platform.machine()}, {platform.python_version()})")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"recipe": recipe.name, "seeds": args.seeds, "rows": rows, "seconds": secs}, fh, indent=2)
+        write_json_atomic(args.json, {"recipe": recipe.name, "seeds": args.seeds, "rows": rows, "seconds": secs})
 
 
 if __name__ == "__main__":

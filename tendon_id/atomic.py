@@ -38,3 +38,41 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], None]) -> Path:
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
     return atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def _jsonable(o):
+    """numpy scalars and arrays as plain JSON values; anything else number-like as a float."""
+    import numpy as np
+
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.integer, np.bool_)):
+        return o.item()
+    return float(o)
+
+
+def _finite(o):
+    """Non-finite floats as null, recursively."""
+    import math
+
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    if isinstance(o, float) or type(o).__name__.startswith("float"):
+        return float(o) if math.isfinite(o) else None
+    return o
+
+
+def write_json_atomic(path: str | os.PathLike, obj, *, strict: bool = False) -> Path:
+    """Write ``obj`` as indented JSON to ``path`` atomically.
+
+    numpy values are converted. ``strict`` writes non-finite numbers as ``null`` (standard
+    JSON); otherwise they are written as Python's ``NaN``/``Infinity`` tokens.
+    """
+    import json
+
+    if strict:
+        obj = _finite(obj)
+    text = json.dumps(obj, indent=2, default=_jsonable, allow_nan=not strict) + "\n"
+    return write_text_atomic(path, text)

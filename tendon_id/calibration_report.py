@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from tendon_id.atomic import atomic_write, write_text_atomic
+from tendon_id.atomic import atomic_write, write_json_atomic
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.zoo import CapstanModel, make
@@ -39,7 +38,7 @@ def run_calibration(recordings: Sequence[Recording], *, model: str, tying: str, 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     m.fit(recordings)
-    written = [write_text_atomic(out / "calibration.json", json.dumps(calibration_json(m, recordings), indent=2) + "\n")]
+    written = [write_json_atomic(out / "calibration.json", calibration_json(m, recordings))]
     written.append(m.save(out / "model"))
     if posterior:
         from tendon_id.posterior import sample_posterior
@@ -47,7 +46,7 @@ def run_calibration(recordings: Sequence[Recording], *, model: str, tying: str, 
         post = sample_posterior(m, recordings, seed=seed)
         doc = {"parameters": post.summary(), "tau": float(np.max(post.tau)), "seconds": post.seconds,
                "acceptance": post.acceptance, "walkers": int(post.chain.shape[1]), "steps_kept": int(post.chain.shape[0])}
-        written.append(write_text_atomic(out / "posterior.json", json.dumps(doc, indent=2) + "\n"))
+        written.append(write_json_atomic(out / "posterior.json", doc))
         fig = post.corner()
         written.append(atomic_write(out / "corner.png", lambda tmp: fig.savefig(tmp, format="png", dpi=90)))
         import matplotlib.pyplot as plt

@@ -84,9 +84,9 @@ def _read_all(paths: list[Path]):
 
 
 def _write_json(path: Path, obj: dict) -> None:
-    from tendon_id.atomic import write_text_atomic
+    from tendon_id.atomic import write_json_atomic
 
-    write_text_atomic(path, json.dumps(obj, indent=2, default=float) + "\n")
+    write_json_atomic(path, obj)
 
 
 @app.command()

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
 import numpy as np
 
-from tendon_id.atomic import write_text_atomic
+from tendon_id.atomic import write_json_atomic
 from tendon_id.identifiability.analysis import IdentifiabilityResult
 from tendon_id.identifiability.band import ambiguity_band
 from tendon_id.identifiability.profile import THRESHOLD_95
@@ -307,24 +306,5 @@ def write_report(result: IdentifiabilityResult, out: str | os.PathLike, json_pat
     """Write the HTML page (and the JSON summary) atomically."""
     path = report_page(result).write(out)
     if json_path is not None:
-        write_text_atomic(json_path, json.dumps(_finite(result.to_json()), indent=2, default=_json_default, allow_nan=False) + "\n")
+        write_json_atomic(json_path, result.to_json(), strict=True)
     return path
-
-
-def _finite(o):
-    """Non-finite floats become null: the JSON stays strict (scripts and CI read it)."""
-    if isinstance(o, dict):
-        return {k: _finite(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_finite(v) for v in o]
-    if isinstance(o, (float, np.floating)):
-        return float(o) if np.isfinite(o) else None
-    return o
-
-
-def _json_default(o):
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
