@@ -137,10 +137,11 @@ def _folded_backbone(backbone) -> list[tuple[Tensor, Tensor]]:
 class StreamingCascade:
     """Frame-by-frame inference with causal caches: O(1) work per frame (paper Algorithm 1).
 
-    Per guide and set it keeps the keys and values of the last ``h - 1`` frames of every
-    attention layer, so a new frame costs one backbone call and one attention step per
-    layer, batched over the sets at each guide.  The backbone's BatchNorm layers are
-    folded into its Linear layers once, at construction.
+    Per guide and set it keeps, for every attention layer, the keys and values of the last
+    ``h`` frames in a ring buffer that each new frame overwrites in place, so a new frame
+    costs one backbone call and one attention step per layer, batched over the sets at
+    each guide, and copies nothing it does not change.  The backbone's BatchNorm layers
+    are folded into its Linear layers once, at construction.
 
     A frame is hundreds of small operations, so on a CPU their dispatch costs as much as
     their arithmetic.  With ``compiled=True`` the whole frame (every guide, every layer) is
@@ -152,8 +153,15 @@ class StreamingCascade:
     def __init__(self, cascade: Cascade, n_sets: int, compiled: bool = True):
         self.cascade = cascade.eval()
         self.n_sets = n_sets
+        window = cascade.cfg.window
+        p = next(cascade.parameters())
         with torch.no_grad():
             self.backbones = [_folded_backbone(u.backbone) for u in cascade.units]
+        # Ring bookkeeping for every (slot, frames seen) state, built once: a frame only picks them.
+        slots = torch.arange(window, device=p.device)
+        self._slot = [torch.tensor([s], device=p.device) for s in range(window)]
+        self._lag = [(s - slots) % window for s in range(window)]  # lag of each slot when the newest is in slot s
+        self._invalid = [[lag > seen for seen in range(window)] for lag in self._lag]  # [slot][min(seen, window-1)]
         self.reset()
         self._graph = self._trace() if compiled else None
 
@@ -165,8 +173,7 @@ class StreamingCascade:
         for g in range(c.n_guides):
             unit = c.unit(g)
             if unit.residual is not None:
-                for k, v in unit.residual.empty_cache(self.n_sets - (g + 1), p.device, p.dtype):
-                    caches += [k, v]
+                caches += unit.residual.empty_cache(self.n_sets - (g + 1), p.device, p.dtype)
         self.caches = tuple(caches)
         self.n_seen = 0
 
@@ -178,30 +185,30 @@ class StreamingCascade:
         w, b = layers[-1]
         return torch.nn.functional.softplus(torch.addmm(b, h, w)) + 0.01
 
-    def _frame(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor, n_valid: Tensor,
-               caches: tuple[Tensor, ...]) -> tuple[Tensor, tuple[Tensor, ...]]:
-        """One frame from explicit state: the function both the eager and the traced step run."""
+    def _frame(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor, slot: Tensor, lag_of_slot: Tensor, invalid: Tensor,
+               caches: tuple[Tensor, ...]) -> Tensor:
+        """One frame from explicit state (the caches are updated in place): what the eager and traced steps run."""
         c = self.cascade
-        log_t = log_actuator
         geo = torch.cat([sin_q, torch.cos(alpha)[:, None]], dim=1)  # (N-1, 5): the geometric inputs of every guide
         mean, std = c.feature_mean, c.feature_std
-        new: list[Tensor] = []
+        biases = [u.residual.ring_biases(lag_of_slot, invalid) if u.residual is not None else [] for u in c.units]
+        done = [log_actuator[:1]]  # set j is final once it has passed guide j - 1
+        x_t = log_actuator[1:]
         k = 0
         for g in range(c.n_guides):
-            x_t = log_t[g + 1 :]
             x = torch.cat([geo[g].expand(x_t.shape[0], 5), torch.exp(x_t)], dim=1)
             x = (x - mean) / std
             lr = torch.log(self._backbone(g, x))
             unit = c.unit(g)
             if unit.residual is not None:
-                n = len(unit.residual.layers)
-                cache = [(caches[k + 2 * i], caches[k + 2 * i + 1]) for i in range(n)]
-                r_tr, cache = unit.residual.step(x, cache, n_valid.expand(x.shape[0]))
-                new += [t for pair in cache for t in pair]
-                k += 2 * n
+                n = 2 * len(unit.residual.layers)
+                r_tr = unit.residual.step(x, list(caches[k : k + n]), slot, biases[0 if c.tied else g])
+                k += n
                 lr = lr + torch.log1p(r_tr)
-            log_t = torch.cat([log_t[: g + 1], x_t + lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)], dim=0)
-        return log_t, tuple(new)
+            out = x_t + lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)
+            done.append(out[:1])
+            x_t = out[1:]
+        return torch.cat(done, dim=0)
 
     def _trace(self):
         """The frame as a frozen TorchScript graph, or None where tracing fails."""
@@ -212,14 +219,16 @@ class StreamingCascade:
                 super().__init__()
                 self.cascade = engine.cascade  # its weights are the graph's parameters, frozen below
 
-            def forward(self, sin_q, alpha, log_actuator, n_valid, caches):
-                return engine._frame(sin_q, alpha, log_actuator, n_valid, caches)
+            def forward(self, sin_q, alpha, log_actuator, slot, lag_of_slot, invalid, caches):
+                return engine._frame(sin_q, alpha, log_actuator, slot, lag_of_slot, invalid, caches)
 
         c = self.cascade
         p = next(c.parameters())
         n = self.n_sets
+        # Traced on scratch caches: tracing runs the frame once, and that must not touch the state.
+        scratch = tuple(torch.zeros_like(t) for t in self.caches)
         example = (torch.zeros(n - 1, 4, dtype=p.dtype, device=p.device), torch.zeros(n - 1, dtype=p.dtype, device=p.device),
-                   torch.zeros(n, 3, dtype=p.dtype, device=p.device), torch.zeros(1, dtype=torch.long, device=p.device), self.caches)
+                   torch.zeros(n, 3, dtype=p.dtype, device=p.device), self._slot[0], self._lag[0], self._invalid[0][0], scratch)
         try:
             with torch.no_grad(), warnings.catch_warnings():
                 # TorchScript is deprecated in favour of torch.compile, which needs a C++ toolchain at
@@ -240,8 +249,10 @@ class StreamingCascade:
         alpha : Tensor, shape (N-1,)
         log_actuator : Tensor, shape (N, 3)
         """
-        n_valid = torch.full((1,), min(self.n_seen, self.cascade.cfg.window - 1), dtype=torch.long, device=log_actuator.device)
+        window = self.cascade.cfg.window
+        slot = self.n_seen % window
         run = self._graph if self._graph is not None else self._frame
-        log_t, self.caches = run(sin_q, alpha, log_actuator, n_valid, self.caches)
+        log_t = run(sin_q, alpha, log_actuator, self._slot[slot], self._lag[slot], self._invalid[slot][min(self.n_seen, window - 1)],
+                    self.caches)
         self.n_seen += 1
         return log_t

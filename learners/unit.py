@@ -88,26 +88,48 @@ class SlidingWindowAttention(nn.Module):
         y = torch.einsum("blhw,blwhd->blhd", att, vw).reshape(b, L, -1)
         return self.out(y)
 
-    def step(self, x: Tensor, k_cache: Tensor, v_cache: Tensor, n_valid: Tensor) -> tuple[Tensor, Tensor, Tensor]:
-        """One new frame per stream, from cached keys and values of the frames before it.
+    def ring_bias(self, lag_of_slot: Tensor, invalid: Tensor) -> Tensor:
+        """Lag bias of every slot of a ring cache, ``-inf`` where the slot holds no frame of this trajectory.
+
+        Parameters
+        ----------
+        lag_of_slot : Tensor of int, shape (window,)
+            How many frames ago the frame in each slot was seen (0: the current frame).
+        invalid : Tensor of bool, shape (window,)
+            Slots not (yet) holding a frame of the current trajectory.
+
+        Returns
+        -------
+        Tensor, shape (H, 1, window)
+        """
+        return self.lag_bias.index_select(1, lag_of_slot).masked_fill(invalid, float("-inf"))[:, None, :]
+
+    def step(self, x: Tensor, keys: Tensor, values: Tensor, slot: Tensor, bias: Tensor) -> Tensor:
+        """One new frame per stream, attending to a ring cache of the last ``window`` frames.
+
+        The cache is a ring: the new frame's key and value overwrite, in place, the slot of
+        the frame ``window`` frames ago, so nothing else is copied.  Attention does not care
+        in which order keys are stored; the lag of each slot enters only through ``bias``.
 
         Parameters
         ----------
         x : Tensor, shape (S, d)
-        k_cache, v_cache : Tensor, shape (S, window - 1, H, dk)
-            Lag 1 first.
-        n_valid : Tensor of int, shape (S,)
-            How many cached frames belong to the current trajectory.
+        keys : Tensor, shape (S, H, dk, window)
+            Keys, stored transposed so that the scores are one batched matmul; updated in place.
+        values : Tensor, shape (S, H, window, dk)
+            Updated in place.
+        slot : Tensor of int, shape (1,)
+            The slot the new frame goes to.
+        bias : Tensor, shape (H, 1, window)
+            From :meth:`ring_bias`.
         """
+        s = x.shape[0]
         q, k, v = self.qkv(x).chunk(3, dim=-1)
-        q, k, v = self._split(q), self._split(k), self._split(v)  # (S, H, dk)
-        kw = torch.cat([k[:, None], k_cache], dim=1)  # (S, window, H, dk)
-        vw = torch.cat([v[:, None], v_cache], dim=1)
-        scores = torch.einsum("shd,swhd->shw", q, kw) / math.sqrt(self.dk) + self.lag_bias
-        lags = torch.arange(self.window, device=x.device)
-        scores = scores.masked_fill((lags[None, :] > n_valid[:, None])[:, None, :], float("-inf"))
-        y = torch.einsum("shw,swhd->shd", torch.softmax(scores, dim=-1), vw).reshape(x.shape[0], -1)
-        return self.out(y), kw[:, :-1], vw[:, :-1]
+        keys.index_copy_(3, slot, k.reshape(s, self.h, self.dk, 1))
+        values.index_copy_(2, slot, v.reshape(s, self.h, 1, self.dk))
+        scores = torch.matmul(q.reshape(s, self.h, 1, self.dk), keys) / math.sqrt(self.dk) + bias  # (S, H, 1, window)
+        y = torch.matmul(torch.softmax(scores, dim=-1), values).reshape(s, -1)
+        return self.out(y)
 
 
 class SlidingWindowLayer(nn.Module):
@@ -145,21 +167,31 @@ class TemporalResidual(nn.Module):
             h = layer(h, valid)
         return 0.5 * torch.tanh(self.head(self.norm(h)))
 
-    def step(self, x: Tensor, cache: list[tuple[Tensor, Tensor]], n_valid: Tensor) -> tuple[Tensor, list[tuple[Tensor, Tensor]]]:
-        """``r_TR`` of one new frame per stream (S, 8), updating the per-layer key/value caches."""
-        h = self.embed(x)
-        new_cache = []
-        for layer, (kc, vc) in zip(self.layers, cache):
-            a, kc, vc = layer.attn.step(layer.norm1(h), kc, vc, n_valid)
-            h = h + a
-            h = h + layer.ff(layer.norm2(h))
-            new_cache.append((kc, vc))
-        return 0.5 * torch.tanh(self.head(self.norm(h))), new_cache
+    def ring_biases(self, lag_of_slot: Tensor, invalid: Tensor) -> list[Tensor]:
+        """Each layer's :meth:`SlidingWindowAttention.ring_bias` for the current frame."""
+        return [layer.attn.ring_bias(lag_of_slot, invalid) for layer in self.layers]
 
-    def empty_cache(self, n_streams: int, device=None, dtype=None) -> list[tuple[Tensor, Tensor]]:
+    def step(self, x: Tensor, cache: list[Tensor], slot: Tensor, biases: list[Tensor]) -> Tensor:
+        """``r_TR`` of one new frame per stream (S, 8), writing its keys and values into the ring ``cache``.
+
+        ``cache`` holds each layer's keys and values, ``[k_1, v_1, k_2, v_2, ...]``, as made
+        by :meth:`empty_cache`; ``biases`` come from :meth:`ring_biases`.
+        """
+        h = self.embed(x)
+        for i, layer in enumerate(self.layers):
+            h = h + layer.attn.step(layer.norm1(h), cache[2 * i], cache[2 * i + 1], slot, biases[i])
+            h = h + layer.ff(layer.norm2(h))
+        return 0.5 * torch.tanh(self.head(self.norm(h)))
+
+    def empty_cache(self, n_streams: int, device=None, dtype=None) -> list[Tensor]:
+        """Zeroed ring caches for ``n_streams`` streams: ``[keys, values]`` per layer."""
         c = self.cfg
-        shape = (n_streams, c.window - 1, c.n_heads, c.d_model // c.n_heads)
-        return [(torch.zeros(shape, device=device, dtype=dtype), torch.zeros(shape, device=device, dtype=dtype)) for _ in range(c.n_layers)]
+        dk = c.d_model // c.n_heads
+        out = []
+        for _ in range(c.n_layers):
+            out += [torch.zeros((n_streams, c.n_heads, dk, c.window), device=device, dtype=dtype),
+                    torch.zeros((n_streams, c.n_heads, c.window, dk), device=device, dtype=dtype)]
+        return out
 
 
 class PGCHTMUnit(nn.Module):

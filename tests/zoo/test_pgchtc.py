@@ -53,6 +53,36 @@ def test_streaming_equals_batch_on_a_held_out_trajectory(fitted, data):
     np.testing.assert_allclose(again, out[:5], rtol=1e-6)
 
 
+@pytest.mark.parametrize("tied", [True, False])
+@pytest.mark.parametrize("compiled", [True, False])
+def test_ring_cache_streaming_equals_batch_over_many_windows(tied, compiled):
+    """The ring caches wrap around several times; per-guide units keep their own caches.
+
+    In float64, so that what is compared is the caching, not float32 rounding (which an
+    untrained per-guide chain amplifies to about 1e-5 even between batch and exact).
+    """
+    from learners.cascade import StreamingCascade
+
+    torch.manual_seed(0)
+    n, L = 5, 23  # window 5: the ring wraps four times
+    cascade = Cascade(n - 1, preset("tiny").unit, tied=tied).double().eval()
+    for u in cascade.units:
+        torch.nn.init.normal_(u.residual.head.weight, std=0.5)  # a residual that matters
+    g = torch.Generator().manual_seed(1)
+    sin_q = 0.2 * torch.randn(1, L, n - 1, 4, generator=g, dtype=torch.float64)
+    alpha = 0.05 + 0.3 * torch.rand(1, L, n - 1, generator=g, dtype=torch.float64)
+    log_act = 4.5 + 0.3 * torch.randn(1, L, n, 3, generator=g, dtype=torch.float64)
+    with torch.no_grad():
+        batch, _ = cascade(CascadeInputs(sin_q, alpha, log_act, torch.arange(L)[None]), torch.arange(n))
+    engine = StreamingCascade(cascade, n, compiled=compiled)
+    assert (engine._graph is not None) == compiled
+    out = torch.stack([engine.step(sin_q[0, t], alpha[0, t], log_act[0, t]) for t in range(L)])
+    torch.testing.assert_close(out, batch[0], rtol=0, atol=1e-10)
+    engine.reset()
+    again = torch.stack([engine.step(sin_q[0, t], alpha[0, t], log_act[0, t]) for t in range(7)])
+    torch.testing.assert_close(again, out[:7], rtol=0, atol=1e-12)
+
+
 def test_save_load_predict_identical_with_safetensors(fitted, data, tmp_path):
     _, test = data
     folder = fitted.save(tmp_path / "pg")
