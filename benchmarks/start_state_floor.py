@@ -115,10 +115,10 @@ def main() -> None:
     args = ap.parse_args()
     t0 = time.perf_counter()
     recipe = load_recipe(args.recipe)
-    sims = lambda seeds: [sim for s in seeds for p in TEST_PROTOCOLS for sim in sequences(simulate(recipe, p, seed=s).recording)]  # noqa: E731
     # Sessions 1.. are new simulations; Table II's data are session `seed` of the recipe (0).
     base = recipe.seed + 1 + 1000 * args.seed
-    train = sims(range(base, base + args.train_seeds))
+    train = [seq for s in range(base, base + args.train_seeds) for p in TEST_PROTOCOLS
+             for seq in sequences(simulate(recipe, p, seed=s).recording)]
     val_recs = {p: [simulate(recipe, p, seed=s).recording for s in range(base + args.train_seeds, base + args.train_seeds + VAL_SEEDS)]
                 for p in TEST_PROTOCOLS}
     splits = [paper_split(args.recipe, s) for s in range(args.seed, args.seed + args.repeats)]
