@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import asdict
 
@@ -226,10 +227,10 @@ class PGCHTC(TransmissionModel):
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
         return chain
 
-    def streamer(self) -> PGCHTCStream:
-        """A frame-by-frame estimator with causal caches (O(1) per frame)."""
+    def streamer(self, engine: str = "auto") -> PGCHTCStream:
+        """A frame-by-frame estimator with causal caches (O(1) per frame); see :class:`PGCHTCStream` for ``engine``."""
         self._check_fitted()
-        return PGCHTCStream(self)
+        return PGCHTCStream(self, engine)
 
     # ---- persistence ----------------------------------------------------------------------
     def _state(self):
@@ -256,42 +257,79 @@ class PGCHTC(TransmissionModel):
         self.history_ = state.get("history", {})
 
 
-class PGCHTCStream:
-    """Streaming PG-CHTC: ``step(frame) -> (N, 3)`` joint-side estimates [N] (paper Algorithm 1)."""
+STREAM_ENGINES = ("auto", "native", "torch")
 
-    def __init__(self, model: PGCHTC):
+
+class PGCHTCStream:
+    """Streaming PG-CHTC: ``step(frame) -> (N, 3)`` joint-side estimates [N] (paper Algorithm 1).
+
+    Parameters
+    ----------
+    model : PGCHTC
+        A fitted model.
+    engine : {"auto", "native", "torch"}
+        ``"native"`` runs each frame in a small C kernel compiled once per machine
+        (:mod:`learners.streaming_native`); ``"torch"`` in a traced TorchScript graph
+        (:class:`~learners.cascade.StreamingCascade`).  Both compute the same frame, in
+        float32.  ``"auto"`` (default) takes the kernel where it builds and the model is a
+        float32 CPU model, and the torch engine otherwise (with a warning if the kernel
+        failed to build).
+
+    Attributes
+    ----------
+    engine_name : str
+        The engine in use, ``"native"`` or ``"torch"``.
+    """
+
+    def __init__(self, model: PGCHTC, engine: str = "auto"):
+        from learners.streaming_native import KernelUnavailable, NativeStreamingCascade
+
+        if engine not in STREAM_ENGINES:
+            raise ConfigError(f"engine must be one of {', '.join(STREAM_ENGINES)}; got {engine!r}")
         self.model = model
-        self.engine = StreamingCascade(model.cascade_, model.n_modules_)
         self.alpha0 = model.geometry_.alpha_0
+        self.engine_name = "torch"
+        if engine in ("auto", "native"):
+            try:
+                self.engine = NativeStreamingCascade(model.cascade_, model.n_modules_)
+                self.engine_name = "native"
+            except KernelUnavailable as exc:
+                if engine == "native":
+                    raise TendonIdError(f"the native streaming engine is unavailable: {exc}") from None
+                if "TENDON_ID_NATIVE" not in str(exc):
+                    warnings.warn(f"streaming on the slower torch engine: {exc}", RuntimeWarning, stacklevel=3)
+        if self.engine_name == "torch":
+            self.engine = StreamingCascade(model.cascade_, model.n_modules_)
 
     def reset(self) -> None:
         """Start a new trajectory."""
         self.engine.reset()
 
     def step(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
-        """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out.
-
-        Runs on one thread: a frame is hundreds of small operations (a traced graph, see
-        :class:`~learners.cascade.StreamingCascade`), for which waking a second OpenMP thread
-        costs more than it saves (measured for the paper preset on 2 cores: 5.0 against
-        5.0 ms traced, 7.2 against 7.1 ms eager; one thread keeps other work free).
-        """
-        threads = torch.get_num_threads()
-        if threads != 1:
-            torch.set_num_threads(1)
-        try:
-            return self._step(angles, actuator)
-        finally:
-            if threads != 1:
-                torch.set_num_threads(threads)
-
-    def _step(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
+        """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out."""
         mag = np.linalg.norm(angles, axis=-1)
         alpha = np.minimum(0.5 * mag[:-1] + 0.5 * mag[1:] + self.alpha0, np.pi)  # paper Eq. (3), backbone wrap
         s = np.sin(angles)
         sin_q = np.concatenate([s[:-1], s[1:]], axis=-1)
-        f32 = lambda x: torch.as_tensor(x, dtype=torch.float32)  # noqa: E731
-        out = self.engine.step(f32(sin_q), f32(alpha), f32(np.log(actuator)))
-        est = np.exp(out.double().numpy())
+        log_act = np.log(actuator)
+        if self.engine_name == "native":
+            out = self.engine.step(sin_q, alpha, log_act)
+        else:
+            out = self._torch_step(sin_q, alpha, log_act)
+        est = np.exp(out.astype(np.float64))
         est[0] = actuator[0]
         return est
+
+    def _torch_step(self, sin_q: np.ndarray, alpha: np.ndarray, log_act: np.ndarray) -> np.ndarray:
+        """The torch engine on one thread: a frame is hundreds of small operations, for which waking a
+        second OpenMP thread costs more than it saves (measured for the paper preset on 2 cores: 5.0
+        against 5.0 ms traced, 7.2 against 7.1 ms eager; one thread keeps other work free)."""
+        threads = torch.get_num_threads()
+        if threads != 1:
+            torch.set_num_threads(1)
+        try:
+            f32 = lambda x: torch.as_tensor(x, dtype=torch.float32)  # noqa: E731
+            return self.engine.step(f32(sin_q), f32(alpha), f32(log_act)).numpy()
+        finally:
+            if threads != 1:
+                torch.set_num_threads(threads)

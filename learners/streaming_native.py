@@ -1,0 +1,273 @@
+"""Streaming PG-CHTC through a small C kernel, for CPU inference within a control period.
+
+:class:`NativeStreamingCascade` runs the same frame as
+:class:`learners.cascade.StreamingCascade` (paper Algorithm 1: per guide, ``f_theta``
+times ``1 + r_TR`` from ring caches of the last ``h`` frames) in ``streaming_kernel.c``,
+which is compiled once per machine with the C compiler found at run time and cached.
+Where no compiler works, :func:`load_kernel` raises :class:`KernelUnavailable` and the
+caller falls back to the torch engine, which computes the same thing more slowly.
+
+Why a kernel: a frame is hundreds of small matrix products (eleven sequential guide steps
+of 11..1 rows for N = 12), so in torch their dispatch costs as much as their arithmetic.
+
+Environment
+-----------
+``TENDON_ID_NATIVE=0``
+    Never build or use the kernel.
+``TENDON_ID_CACHE``
+    Where the compiled kernel is kept (default ``$XDG_CACHE_HOME/tendon-id`` or
+    ``~/.cache/tendon-id``).
+``CC``
+    The C compiler (default: the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from learners.cascade import LOG_RATIO_BOUND, Cascade, _folded_backbone
+
+SOURCE = Path(__file__).with_name("streaming_kernel.c")
+#: The kernel's configuration vector, in the order of its ``C_*`` enum.
+CONFIG_FIELDS = ("n_sets", "n_guides", "tied", "n_hidden", "hidden0", "hidden1", "hidden2", "hidden3",
+                 "residual", "d_model", "n_heads", "window", "d_ff", "n_layers")
+MAX_HIDDEN = 4
+_FLAG_SETS = (("-O3", "-march=native", "-std=gnu11"), ("-O3", "-std=gnu11"))  # native SIMD first, portable second
+
+_lock = threading.Lock()
+_loaded: ctypes.CDLL | None = None
+_failure: str | None = None
+
+
+class KernelUnavailable(RuntimeError):
+    """The C kernel cannot be built or loaded here; the reason is the message."""
+
+
+def cache_dir() -> Path:
+    """Where compiled kernels are kept."""
+    if os.environ.get("TENDON_ID_CACHE"):
+        return Path(os.environ["TENDON_ID_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "tendon-id"
+
+
+def _compiler() -> str | None:
+    cc = os.environ.get("CC")
+    if cc:
+        return shutil.which(cc) or (cc if Path(cc).exists() else None)
+    return next((p for p in map(shutil.which, ("cc", "gcc", "clang")) if p), None)
+
+
+def _cpu_signature() -> str:
+    """What ``-march=native`` compiles for: a library built on one CPU may not run on another."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith(("flags", "Features")):
+                    return line
+    except OSError:
+        pass
+    return platform.processor() + platform.machine()
+
+
+def _build(cc: str, target: Path) -> None:
+    target.parent.mkdir(parents=True, exist_ok=True)
+    errors = []
+    for flags in _FLAG_SETS:
+        fd, tmp = tempfile.mkstemp(prefix=".kernel-", suffix=".so", dir=target.parent)
+        os.close(fd)
+        cmd = [cc, *flags, "-shared", "-fPIC", "-o", tmp, str(SOURCE), "-lm"]
+        try:
+            run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+            if run.returncode == 0:
+                os.replace(tmp, target)  # atomic: a concurrent process sees the old file or the whole new one
+                return
+            errors.append(f"{' '.join(cmd)}: {run.stderr.strip()[-400:]}")
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+    raise KernelUnavailable("compiling the streaming kernel failed:\n" + "\n".join(errors))
+
+
+def load_kernel() -> ctypes.CDLL:
+    """The compiled kernel, built on first use (about a second) and cached per source, compiler and CPU.
+
+    Raises
+    ------
+    KernelUnavailable
+        With the reason, if it is disabled (``TENDON_ID_NATIVE=0``), no C compiler is found,
+        or compiling or loading fails.  The outcome is remembered for the process.
+    """
+    global _loaded, _failure
+    with _lock:
+        if _loaded is not None:
+            return _loaded
+        if _failure is not None:
+            raise KernelUnavailable(_failure)
+        try:
+            _loaded = _load()
+            return _loaded
+        except KernelUnavailable as e:
+            _failure = str(e)
+            raise
+
+
+def _load() -> ctypes.CDLL:
+    if os.environ.get("TENDON_ID_NATIVE", "1").strip().lower() in ("0", "false", "no", "off"):
+        raise KernelUnavailable("disabled by TENDON_ID_NATIVE=0")
+    if sys.platform == "win32":
+        raise KernelUnavailable("the streaming kernel is built with a Unix C compiler; not on Windows")
+    cc = _compiler()
+    if cc is None:
+        raise KernelUnavailable("no C compiler found (set CC, or install gcc or clang)")
+    key = hashlib.sha256(SOURCE.read_bytes() + cc.encode() + repr(_FLAG_SETS).encode() + _cpu_signature().encode()).hexdigest()[:16]
+    target = cache_dir() / f"streaming_kernel-{key}.so"
+    if not target.exists():
+        _build(cc, target)
+    try:
+        lib = ctypes.CDLL(str(target))
+    except OSError as e:
+        raise KernelUnavailable(f"loading {target} failed: {e}") from e
+    vp, i32, f32 = ctypes.c_void_p, ctypes.c_int, ctypes.c_float
+    lib.pgchtc_frame.argtypes = [vp, vp, vp, f32, vp, vp, vp, i32, i32, vp, vp]
+    lib.pgchtc_frame.restype = i32
+    lib.pgchtc_unit_floats.argtypes = [vp]
+    lib.pgchtc_unit_floats.restype = ctypes.c_long
+    lib.pgchtc_cache_floats.argtypes = [vp, i32]
+    lib.pgchtc_cache_floats.restype = ctypes.c_long
+    lib.pgchtc_erf.argtypes = [vp, vp, i32]
+    if lib.pgchtc_cfg_len() != len(CONFIG_FIELDS):
+        raise KernelUnavailable(f"{target} does not match this version of tendon-id")
+    return lib
+
+
+def kernel_status() -> tuple[bool, str]:
+    """Whether the kernel is usable here, and if not, why."""
+    try:
+        load_kernel()
+        return True, "ok"
+    except KernelUnavailable as e:
+        return False, str(e)
+
+
+def _as_f32(t: torch.Tensor) -> np.ndarray:
+    return t.detach().to("cpu", torch.float32).numpy().ravel()
+
+
+def _pack_unit(unit) -> np.ndarray:
+    """One unit's parameters in the kernel's order (see ``guide_step`` in streaming_kernel.c).
+
+    Linear weights are stored transposed, (in, out); ``f_theta``'s BatchNorm is folded in.
+    """
+    parts = []
+    for w, b in _folded_backbone(unit.backbone):
+        parts += [w, b]
+    r = unit.residual
+    if r is not None:
+        parts += [r.embed.weight.T, r.embed.bias]
+        for layer in r.layers:
+            a, ff1, ff2 = layer.attn, layer.ff[0], layer.ff[2]
+            parts += [layer.norm1.weight, layer.norm1.bias, a.qkv.weight.T, a.qkv.bias, a.out.weight.T, a.out.bias, a.lag_bias,
+                      layer.norm2.weight, layer.norm2.bias, ff1.weight.T, ff1.bias, ff2.weight.T, ff2.bias]
+        parts += [r.norm.weight, r.norm.bias, r.head.weight.T, r.head.bias]
+    with torch.no_grad():
+        return np.ascontiguousarray(np.concatenate([_as_f32(p) for p in parts]), dtype=np.float32)
+
+
+def unsupported(cascade: Cascade) -> str | None:
+    """Why the kernel cannot run this cascade, or None if it can."""
+    p = next(cascade.parameters())
+    if p.device.type != "cpu":
+        return f"parameters on {p.device}, the kernel runs on the CPU"
+    if p.dtype != torch.float32:
+        return f"parameters in {p.dtype}, the kernel computes in float32"
+    if len(cascade.cfg.hidden) > MAX_HIDDEN:
+        return f"more than {MAX_HIDDEN} hidden layers in f_theta"
+    return None
+
+
+class NativeStreamingCascade:
+    """Frame-by-frame inference in the C kernel: the work and the state of :class:`~learners.cascade.StreamingCascade`.
+
+    The parameters are copied at construction (float32, BatchNorm folded); later changes
+    to ``cascade`` are not seen.  The kernel runs on the calling thread and releases the GIL.
+
+    Parameters
+    ----------
+    cascade : Cascade
+        A float32 cascade on the CPU, in eval mode.
+    n_sets : int
+        ``N``, the number of tendon sets.
+
+    Raises
+    ------
+    KernelUnavailable
+        If the kernel cannot be built here, or cannot run this cascade.
+    """
+
+    def __init__(self, cascade: Cascade, n_sets: int):
+        why = unsupported(cascade)
+        if why:
+            raise KernelUnavailable(why)
+        self.lib = load_kernel()
+        cfg = cascade.cfg
+        hidden = list(cfg.hidden) + [0] * (MAX_HIDDEN - len(cfg.hidden))
+        self.config = np.array([n_sets, cascade.n_guides, int(cascade.tied), len(cfg.hidden), *hidden, int(cfg.temporal_residual),
+                                cfg.d_model, cfg.n_heads, cfg.window, cfg.d_ff, cfg.n_layers], dtype=np.int32)
+        self.n_sets, self.window = n_sets, cfg.window
+        self.units = [_pack_unit(u) for u in cascade.units]
+        expected = self.lib.pgchtc_unit_floats(self.config.ctypes.data)
+        if any(u.size != expected for u in self.units):  # the packer and the kernel disagree on the layout
+            raise KernelUnavailable(f"parameter layout mismatch: packed {self.units[0].size} floats, the kernel reads {expected}")
+        self.norm = np.concatenate([_as_f32(cascade.feature_mean), _as_f32(cascade.feature_std)]).astype(np.float32)
+        self.caches = [np.zeros(max(1, self.lib.pgchtc_cache_floats(self.config.ctypes.data, g)), np.float32)
+                       for g in range(cascade.n_guides)]
+        ptrs = lambda arrays: (ctypes.c_void_p * max(1, len(arrays)))(*[a.ctypes.data for a in arrays])  # noqa: E731
+        self._unit_ptrs, self._cache_ptrs = ptrs(self.units), ptrs(self.caches)
+        self._out = np.empty((n_sets, 3), np.float32)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the history (call at the start of a trajectory)."""
+        for c in self.caches:
+            c.fill(0.0)
+        self.n_seen = 0
+
+    def step(self, sin_q: np.ndarray, alpha: np.ndarray, log_actuator: np.ndarray) -> np.ndarray:
+        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame, float32 of shape (N, 3).
+
+        Parameters
+        ----------
+        sin_q : array, shape (N-1, 4)
+            ``sin`` of the adjacent joint angles of each guide.
+        alpha : array, shape (N-1,)
+            Backbone wrap of each guide [rad].
+        log_actuator : array, shape (N, 3)
+            ``ln`` of the actuator-side tensions [ln N].
+        """
+        n = self.n_sets
+        sin_q = np.ascontiguousarray(sin_q, dtype=np.float32)
+        alpha = np.ascontiguousarray(alpha, dtype=np.float32)
+        log_actuator = np.ascontiguousarray(log_actuator, dtype=np.float32)
+        if sin_q.shape != (n - 1, 4) or alpha.shape != (n - 1,) or log_actuator.shape != (n, 3):
+            raise ValueError(f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, 3); "
+                             f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}")
+        rc = self.lib.pgchtc_frame(self.config.ctypes.data, self._unit_ptrs, self.norm.ctypes.data, LOG_RATIO_BOUND,
+                                   sin_q.ctypes.data, alpha.ctypes.data, log_actuator.ctypes.data, self.n_seen % self.window,
+                                   min(self.n_seen, self.window - 1), self._cache_ptrs, self._out.ctypes.data)
+        if rc != 0:
+            raise MemoryError("the streaming kernel could not allocate its scratch memory")
+        self.n_seen += 1
+        return self._out.copy()

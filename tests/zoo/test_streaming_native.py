@@ -1,0 +1,109 @@
+"""The C streaming kernel: the same frame as the torch engine, as exact as float32 allows, and a clean fallback."""
+
+import numpy as np
+import pytest
+import torch
+
+from learners import Cascade, CascadeInputs, preset
+from learners import streaming_native as sn
+
+
+@pytest.fixture(scope="module")
+def kernel():
+    ok, why = sn.kernel_status()
+    if not ok:
+        pytest.skip(f"no streaming kernel here: {why}")
+    return sn.load_kernel()
+
+
+def test_kernel_erf_is_float32_accurate(kernel):
+    x = np.linspace(-6.0, 6.0, 200_001, dtype=np.float32)
+    y = np.empty_like(x)
+    kernel.pgchtc_erf(x.ctypes.data, y.ctypes.data, x.size)
+    exact = torch.erf(torch.from_numpy(x).double()).numpy()
+    assert np.max(np.abs(y - exact)) < 5e-7
+
+
+def _random_cascade(n, tied, residual, seed=0):
+    torch.manual_seed(seed)
+    cfg = preset("tiny", temporal_residual=residual).unit
+    cascade = Cascade(n - 1, cfg, tied=tied).eval()
+    with torch.no_grad():
+        for u in cascade.units:
+            u.backbone.head.weight.mul_(0.3)  # ratios near 1, so that the chain does not amplify rounding
+            for bn in (m for m in u.backbone.body if isinstance(m, torch.nn.BatchNorm1d)):  # non-trivial folded BatchNorm
+                bn.running_mean.uniform_(-0.2, 0.2)
+                bn.running_var.uniform_(0.5, 2.0)
+                bn.weight.uniform_(0.8, 1.2)
+            if u.residual is not None:
+                torch.nn.init.normal_(u.residual.head.weight, std=0.3)  # a residual that matters
+                for layer in u.residual.layers:
+                    torch.nn.init.normal_(layer.attn.lag_bias, std=1.0)  # lags distinguishable
+        cascade.feature_mean.copy_(torch.tensor([0, 0, 0, 0, 0.9, 150, 150, 150.0]))
+        cascade.feature_std.copy_(torch.tensor([0.2, 0.2, 0.2, 0.2, 0.05, 60, 60, 60.0]))
+    return cascade
+
+
+@pytest.mark.parametrize("tied", [True, False])
+@pytest.mark.parametrize("residual", [True, False])
+def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, residual):
+    """Against float64 batch inference of the same cascade, while the ring caches wrap four times."""
+    n, L = 5, 23  # tiny preset: window 5
+    cascade = _random_cascade(n, tied, residual)
+    g = torch.Generator().manual_seed(1)
+    sin_q = 0.2 * torch.randn(1, L, n - 1, 4, generator=g)
+    alpha = 0.05 + 0.3 * torch.rand(1, L, n - 1, generator=g)
+    log_act = 5.0 + 0.3 * torch.randn(1, L, n, 3, generator=g)
+    c64 = Cascade(n - 1, cascade.cfg, tied=tied).double().eval()
+    c64.load_state_dict(cascade.state_dict())
+    with torch.no_grad():
+        exact, _ = c64(CascadeInputs(sin_q.double(), alpha.double(), log_act.double(), torch.arange(L)[None]), torch.arange(n))
+    engine = sn.NativeStreamingCascade(cascade, n)
+    out = np.stack([engine.step(sin_q[0, t].numpy(), alpha[0, t].numpy(), log_act[0, t].numpy()) for t in range(L)])
+    np.testing.assert_allclose(out, exact[0].numpy(), rtol=0, atol=2e-6)
+    assert np.ptp(out[:, -1] - log_act[0, :, -1].numpy()) > 0.01  # the chain did something frame to frame
+    engine.reset()
+    again = np.stack([engine.step(sin_q[0, t].numpy(), alpha[0, t].numpy(), log_act[0, t].numpy()) for t in range(7)])
+    np.testing.assert_array_equal(again, out[:7])
+
+
+def test_native_step_rejects_wrong_shapes(kernel):
+    engine = sn.NativeStreamingCascade(_random_cascade(4, True, True), 4)
+    with pytest.raises(ValueError, match=r"sin_q \(3, 4\)"):
+        engine.step(np.zeros((4, 4)), np.zeros(3), np.zeros((4, 3)))
+
+
+def test_kernel_refuses_what_it_cannot_run(kernel):
+    with pytest.raises(sn.KernelUnavailable, match="float32"):
+        sn.NativeStreamingCascade(_random_cascade(4, True, True).double(), 4)
+
+
+def test_a_missing_compiler_falls_back_to_torch_with_a_warning(monkeypatch, tmp_path):
+    from tendon_id.errors import TendonIdError
+    from tendon_id.zoo.learned import PGCHTCStream
+
+    monkeypatch.setattr(sn, "_loaded", None)
+    monkeypatch.setattr(sn, "_failure", None)
+    monkeypatch.setenv("TENDON_ID_CACHE", str(tmp_path))
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
+
+    class Model:  # what PGCHTCStream reads of a fitted PG-CHTC
+        cascade_ = _random_cascade(4, True, True)
+        n_modules_ = 4
+
+        class geometry_:
+            alpha_0 = 0.1
+
+    with pytest.warns(RuntimeWarning, match="no C compiler"):
+        stream = PGCHTCStream(Model())
+    assert stream.engine_name == "torch"
+    assert stream.step(np.zeros((4, 2)), np.full((4, 3), 100.0)).shape == (4, 3)
+    with pytest.raises(TendonIdError, match="native streaming engine is unavailable"):
+        PGCHTCStream(Model(), "native")
+    monkeypatch.setattr(sn, "_failure", None)
+    monkeypatch.setenv("TENDON_ID_NATIVE", "0")  # switched off on purpose: no warning
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert PGCHTCStream(Model()).engine_name == "torch"
