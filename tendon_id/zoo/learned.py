@@ -12,6 +12,7 @@ import torch
 from learners.cascade import Cascade, CascadeInputs, StreamingCascade
 from learners.loss import LossWeights
 from learners.presets import UnitConfig, preset as get_preset
+from learners.streaming_native import KernelUnavailable, NativeStreamingCascade
 from learners.training import Sequences, TrainingError, fit_feature_norm, train_two_stage
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
@@ -282,8 +283,6 @@ class PGCHTCStream:
     """
 
     def __init__(self, model: PGCHTC, engine: str = "auto"):
-        from learners.streaming_native import KernelUnavailable, NativeStreamingCascade
-
         if engine not in STREAM_ENGINES:
             raise ConfigError(f"engine must be one of {', '.join(STREAM_ENGINES)}; got {engine!r}")
         self.model = model
