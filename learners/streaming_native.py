@@ -15,8 +15,7 @@ Environment
 ``TENDON_ID_NATIVE=0``
     Never build or use the kernel.
 ``TENDON_ID_CACHE``
-    Where the compiled kernel is kept (default ``$XDG_CACHE_HOME/tendon-id`` or
-    ``~/.cache/tendon-id``).
+    Where the compiled kernel is kept, beside the built datasets (default ``~/.cache/tendon-id``).
 ``CC``
     The C compiler (default: the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``).
 """
@@ -56,11 +55,13 @@ class KernelUnavailable(RuntimeError):
 
 
 def cache_dir() -> Path:
-    """Where compiled kernels are kept."""
-    if os.environ.get("TENDON_ID_CACHE"):
-        return Path(os.environ["TENDON_ID_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "tendon-id"
+    """Where compiled kernels are kept: the folder of the dataset cache (``tendon_id.datasets``)."""
+    return Path(os.environ.get("TENDON_ID_CACHE") or Path.home() / ".cache" / "tendon-id")
+
+
+def disabled() -> bool:
+    """Whether the user switched the kernel off (``TENDON_ID_NATIVE=0``)."""
+    return os.environ.get("TENDON_ID_NATIVE", "1").strip().lower() in ("0", "false", "no", "off")
 
 
 def _compiler() -> str | None:
@@ -125,7 +126,7 @@ def load_kernel() -> ctypes.CDLL:
 
 
 def _load() -> ctypes.CDLL:
-    if os.environ.get("TENDON_ID_NATIVE", "1").strip().lower() in ("0", "false", "no", "off"):
+    if disabled():
         raise KernelUnavailable("disabled by TENDON_ID_NATIVE=0")
     if sys.platform == "win32":
         raise KernelUnavailable("the streaming kernel is built with a Unix C compiler; not on Windows")

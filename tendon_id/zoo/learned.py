@@ -12,7 +12,7 @@ import torch
 from learners.cascade import Cascade, CascadeInputs, StreamingCascade
 from learners.loss import LossWeights
 from learners.presets import UnitConfig, preset as get_preset
-from learners.streaming_native import KernelUnavailable, NativeStreamingCascade
+from learners.streaming_native import KernelUnavailable, NativeStreamingCascade, disabled as native_disabled
 from learners.training import Sequences, TrainingError, fit_feature_norm, train_two_stage
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
@@ -295,7 +295,7 @@ class PGCHTCStream:
             except KernelUnavailable as exc:
                 if engine == "native":
                     raise TendonIdError(f"the native streaming engine is unavailable: {exc}") from None
-                if "TENDON_ID_NATIVE" not in str(exc):
+                if not native_disabled():  # switched off on purpose: no warning
                     warnings.warn(f"streaming on the slower torch engine: {exc}", RuntimeWarning, stacklevel=3)
         if self.engine_name == "torch":
             self.engine = StreamingCascade(model.cascade_, model.n_modules_)
