@@ -47,6 +47,44 @@ class CascadeInputs:
 LOG_RATIO_BOUND = 6.0
 
 
+def normalised_geometry(sin_q: Tensor, alpha: Tensor, mean: Tensor, std: Tensor) -> Tensor:
+    """The geometric unit inputs of paper Eq. (7), ``[sin q_k (4), cos alpha_k]``, channel-normalised.
+
+    Parameters
+    ----------
+    sin_q : Tensor, shape (..., 4)
+        ``sin`` of the adjacent joint angles of each guide.
+    alpha : Tensor, shape (...)
+        The guide's wrap angle [rad].
+    mean, std : Tensor, shape (8,)
+        The channel normalisation fitted on training data.
+
+    Returns
+    -------
+    Tensor, shape (..., 5), in ``mean``'s dtype (computed in float64).
+
+    Notes
+    -----
+    The unit inputs are normalised in float64 and only then rounded to the units' dtype.
+    ``cos(alpha)`` spans a few 1e-3 just below 1 and the tensions spread little about their
+    mean, so ``(x - mean) / std`` done in float32 amplifies their rounding by ``|x| / std``:
+    on a trained ``fast`` model that alone moved ``ln r`` by about 3e-6 per guide, ten times
+    the units' own float32 rounding, and set the streaming engines 1e-5 apart.
+    """
+    d = torch.float64
+    x = torch.cat([sin_q.to(d), torch.cos(alpha.to(d))[..., None]], dim=-1)
+    return ((x - mean[:5].to(d)) / std[:5].to(d)).to(mean.dtype)
+
+
+def normalised_tensions(log_t: Tensor, mean: Tensor, std: Tensor) -> Tensor:
+    """The tension inputs of paper Eq. (7) from ``ln T`` (..., 3) [ln N], channel-normalised, in ``mean``'s dtype.
+
+    Computed in float64, for the reason given in :func:`normalised_geometry`.
+    """
+    d = torch.float64
+    return ((torch.exp(log_t.to(d)) - mean[5:].to(d)) / std[5:].to(d)).to(mean.dtype)
+
+
 class Cascade(nn.Module):
     """PG-CHTC: shared (``tied``) or per-guide PG-CHTM units chained over the guides.
 
@@ -72,13 +110,6 @@ class Cascade(nn.Module):
     def unit(self, g: int) -> PGCHTMUnit:
         return self.units[0 if self.tied else g]
 
-    def features(self, inp: CascadeInputs, g: int, log_t: Tensor) -> Tensor:
-        """Normalised unit inputs of guide ``g`` for the sets in ``log_t`` (B, L, S, 3): (B, L, S, 8)."""
-        shape = log_t.shape[:-1]
-        x = torch.cat([inp.sin_q[:, :, g, None, :].expand(*shape, 4), torch.cos(inp.alpha[:, :, g, None, None]).expand(*shape, 1),
-                       torch.exp(log_t)], dim=-1)
-        return (x - self.feature_mean) / self.feature_std
-
     def forward(self, inp: CascadeInputs, sets: Tensor, *, residual: bool = True) -> tuple[Tensor, Tensor]:
         """Propagate through every guide.
 
@@ -92,22 +123,26 @@ class Cascade(nn.Module):
 
         Returns
         -------
-        log_joint : Tensor, shape (B, L, S, 3)
+        log_joint : Tensor of float64, shape (B, L, S, 3)
             ``ln T_hat[j, j, i]`` of each set.
         log_ratio : Tensor, shape (B, L, N-1, S, 3)
             ``ln r_data`` per guide (0 where the set does not pass the guide).
         """
         b, L = inp.log_actuator.shape[:2]
-        log_t = inp.log_actuator
-        log_ratio = inp.log_actuator.new_zeros((b, L, self.n_guides) + log_t.shape[2:])
+        # The chain is summed in float64, as predict_chain's cumulative sum of the log ratios is:
+        # in float32 each guide would round ln T (about 4) by up to 2.4e-7.
+        log_t = inp.log_actuator.to(torch.float64)
+        log_ratio = inp.log_actuator.new_zeros((b, L, self.n_guides) + log_t.shape[2:], dtype=self.feature_mean.dtype)
         lags = torch.arange(self.cfg.window, device=log_t.device)
         valid = lags[None, None, :] <= inp.since_start[..., None]  # (B, L, window)
+        geo = normalised_geometry(inp.sin_q, inp.alpha, self.feature_mean, self.feature_std)  # (B, L, N-1, 5)
         for g in range(self.n_guides):
             active = sets > g  # set j (index j-1) passes guide k = g + 1 iff k < j
             if not bool(active.any()):
                 break
             x_t = log_t[:, :, active]
-            x = self.features(inp, g, x_t)  # (B, L, Sa, 8)
+            x = torch.cat([geo[:, :, g, None, :].expand(*x_t.shape[:-1], 5),
+                           normalised_tensions(x_t, self.feature_mean, self.feature_std)], dim=-1)  # (B, L, Sa, 8)
             unit = self.unit(g)
             lr = torch.log(unit.backbone(x))
             if residual and unit.residual is not None:
@@ -117,7 +152,7 @@ class Cascade(nn.Module):
                 lr = lr + torch.log1p(r_tr)
             lr = lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)
             log_t = log_t.clone()
-            log_t[:, :, active] = x_t + lr
+            log_t[:, :, active] = x_t + lr.to(torch.float64)
             log_ratio[:, :, g, active] = lr
         return log_t, log_ratio
 
@@ -189,15 +224,14 @@ class StreamingCascade:
                caches: tuple[Tensor, ...]) -> Tensor:
         """One frame from explicit state (the caches are updated in place): what the eager and traced steps run."""
         c = self.cascade
-        geo = torch.cat([sin_q, torch.cos(alpha)[:, None]], dim=1)  # (N-1, 5): the geometric inputs of every guide
         mean, std = c.feature_mean, c.feature_std
+        geo = normalised_geometry(sin_q, alpha, mean, std)  # (N-1, 5): the geometric inputs of every guide
         biases = [u.residual.ring_biases(lag_of_slot, invalid) if u.residual is not None else [] for u in c.units]
         done = [log_actuator[:1]]  # set j is final once it has passed guide j - 1
-        x_t = log_actuator[1:]
+        x_t = log_actuator[1:]  # float64, as in Cascade.forward
         k = 0
         for g in range(c.n_guides):
-            x = torch.cat([geo[g].expand(x_t.shape[0], 5), torch.exp(x_t)], dim=1)
-            x = (x - mean) / std
+            x = torch.cat([geo[g].expand(x_t.shape[0], 5), normalised_tensions(x_t, mean, std)], dim=1)
             lr = torch.log(self._backbone(g, x))
             unit = c.unit(g)
             if unit.residual is not None:
@@ -205,7 +239,7 @@ class StreamingCascade:
                 r_tr = unit.residual.step(x, list(caches[k : k + n]), slot, biases[0 if c.tied else g])
                 k += n
                 lr = lr + torch.log1p(r_tr)
-            out = x_t + lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)
+            out = x_t + lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND).to(torch.float64)
             done.append(out[:1])
             x_t = out[1:]
         return torch.cat(done, dim=0)
@@ -227,8 +261,9 @@ class StreamingCascade:
         n = self.n_sets
         # Traced on scratch caches: tracing runs the frame once, and that must not touch the state.
         scratch = tuple(torch.zeros_like(t) for t in self.caches)
-        example = (torch.zeros(n - 1, 4, dtype=p.dtype, device=p.device), torch.zeros(n - 1, dtype=p.dtype, device=p.device),
-                   torch.zeros(n, 3, dtype=p.dtype, device=p.device), self._slot[0], self._lag[0], self._invalid[0][0], scratch)
+        f64 = dict(dtype=torch.float64, device=p.device)
+        example = (torch.zeros(n - 1, 4, **f64), torch.zeros(n - 1, **f64), torch.zeros(n, 3, **f64), self._slot[0], self._lag[0],
+                   self._invalid[0][0], scratch)
         try:
             with torch.no_grad(), warnings.catch_warnings():
                 # TorchScript is deprecated in favour of torch.compile, which needs a C++ toolchain at
@@ -241,14 +276,17 @@ class StreamingCascade:
 
     @torch.inference_mode()
     def step(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor) -> Tensor:
-        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame.
+        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame, float64 of shape (N, 3).
 
         Parameters
         ----------
         sin_q : Tensor, shape (N-1, 4)
         alpha : Tensor, shape (N-1,)
         log_actuator : Tensor, shape (N, 3)
+            Any floating dtype; the features and the chain are computed in float64, the units in theirs.
         """
+        f64 = lambda t: t.to(torch.float64)  # noqa: E731
+        sin_q, alpha, log_actuator = f64(sin_q), f64(alpha), f64(log_actuator)
         window = self.cascade.cfg.window
         slot = self.n_seen % window
         run = self._graph if self._graph is not None else self._frame

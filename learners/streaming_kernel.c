@@ -1,18 +1,20 @@
 /* One streaming frame of PG-CHTC (paper Algorithm 1) in plain C, for CPU inference.
  *
- * The same arithmetic as learners.cascade.StreamingCascade._frame, in float32: for each
- * guide, the static backbone f_theta (BatchNorm folded into its Linear layers) and the
- * causal Transformer residual g_phi reading a ring cache of the last `window` frames
- * (paper Eqs. (7)-(8)), then ln T += clamp(ln r_MLP + ln(1 + r_TR)).  Only the order of
- * the float32 sums and the erf approximation differ from torch's, so results agree to
- * float32 rounding, amplified along the chain as any float32 run of the cascade is.
+ * The same arithmetic as learners.cascade.StreamingCascade._frame: for each guide, the
+ * static backbone f_theta (BatchNorm folded into its Linear layers) and the causal
+ * Transformer residual g_phi reading a ring cache of the last `window` frames (paper
+ * Eqs. (7)-(8)), in float32, then ln T += clamp(ln r_MLP + ln(1 + r_TR)).  As in torch,
+ * the unit inputs are normalised and the chain ln T is summed in float64
+ * (learners.cascade.normalised_geometry says why).  Only the order of the float32 sums
+ * and the erf approximation differ from torch's, so results agree to float32 rounding
+ * of the units, amplified along the chain as any float32 run of the cascade is.
  *
  * Why C: a frame is hundreds of small matrix products (11 sequential guide steps of
  * 11..1 rows for N = 12), so in torch their dispatch costs as much as their arithmetic.
  * Here each product is one register-blocked loop over GCC vector types, which the
  * compiler maps to the widest SIMD the machine has.
  *
- * Layouts (all float32, C order):
+ * Layouts (float32 unless said, C order):
  *   units[u]  : one unit's parameters, in the order the Python packer writes them
  *               (learners/streaming_native.py, _pack_unit).
  *   caches[g] : guide g's ring caches, for each layer keys then values, each
@@ -151,10 +153,10 @@ static int widest(const int *cfg) {
     return cfg[C_FF] > w ? cfg[C_FF] : w;
 }
 
-/* One guide step for M streams: ln r = clamp(ln r_MLP + ln(1 + r_TR)) (paper Eq. (8)), added to log_t (M, 3).
+/* One guide step for M streams: ln r = clamp(ln r_MLP + ln(1 + r_TR)) (paper Eq. (8)), added to log_t (M, 3, float64).
  * x: the normalised unit inputs (M, 8) of paper Eq. (7).  buf: scratch_floats(cfg, M) floats. */
 static void guide_step(const int *cfg, const float *P, const float *x, int M, float *cache, int slot, int seen,
-                       float bound, float *log_t, float *buf) {
+                       float bound, double *log_t, float *buf) {
     int n_hidden = cfg[C_N_HIDDEN], wide = widest(cfg);
     int D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
     float *a = buf, *b = buf + (size_t)M * wide, *h = b + (size_t)M * wide, *r = h + (size_t)M * D;
@@ -231,7 +233,7 @@ static void guide_step(const int *cfg, const float *P, const float *x, int M, fl
     }
     for (int i = 0; i < M * 3; i++) {
         float v = ratio[i] < -bound ? -bound : (ratio[i] > bound ? bound : ratio[i]);
-        log_t[i] += v;
+        log_t[i] += (double)v;
     }
 }
 
@@ -255,29 +257,32 @@ long pgchtc_cache_floats(const int *cfg, int g) {
 }
 
 /* The frame: ln T_hat of every set at its own joint, written to out (n_sets, 3).
- * norm: feature mean (8) then std (8).  seen: min(frames already seen, window - 1). */
-int pgchtc_frame(const int *cfg, const float *const *units, const float *norm, float bound, const float *sin_q,
-                 const float *alpha, const float *log_act, int slot, int seen, float *const *caches, float *out) {
+ * Inputs and output in float64: norm, the feature mean (8) then std (8); sin_q (n_sets - 1, 4);
+ * alpha (n_sets - 1); log_act and out (n_sets, 3).  seen: min(frames already seen, window - 1). */
+int pgchtc_frame(const int *cfg, const float *const *units, const double *norm, float bound, const double *sin_q,
+                 const double *alpha, const double *log_act, int slot, int seen, float *const *caches, double *out) {
     int n = cfg[C_N_SETS], G = cfg[C_N_GUIDES];
     int M0 = n - 1;
-    float *buf = malloc(sizeof(float) * (scratch_floats(cfg, M0) + (size_t)M0 * 11));
-    if (!buf) return 1;
-    float *log_t = buf + scratch_floats(cfg, M0), *x = log_t + (size_t)M0 * 3;
-    memcpy(out, log_act, 3 * sizeof(float)); /* set 1 passes no guide */
-    memcpy(log_t, log_act + 3, (size_t)M0 * 3 * sizeof(float));
+    float *buf = malloc(sizeof(float) * (scratch_floats(cfg, M0) + (size_t)M0 * 8));
+    double *log_t = malloc(sizeof(double) * (size_t)M0 * 3);
+    if (!buf || !log_t) { free(buf); free(log_t); return 1; }
+    float *x = buf + scratch_floats(cfg, M0);
+    memcpy(out, log_act, 3 * sizeof(double)); /* set 1 passes no guide */
+    memcpy(log_t, log_act + 3, (size_t)M0 * 3 * sizeof(double));
     int M = M0;
     for (int g = 0; g < G && M > 0; g++) {
-        float geo[5] = {sin_q[4 * g], sin_q[4 * g + 1], sin_q[4 * g + 2], sin_q[4 * g + 3], cosf(alpha[g])};
-        for (int s = 0; s < M; s++) {
-            for (int i = 0; i < 5; i++) x[s * 8 + i] = (geo[i] - norm[i]) / norm[8 + i];
-            for (int i = 0; i < 3; i++) x[s * 8 + 5 + i] = (expf(log_t[s * 3 + i]) - norm[5 + i]) / norm[13 + i];
+        double geo[5] = {sin_q[4 * g], sin_q[4 * g + 1], sin_q[4 * g + 2], sin_q[4 * g + 3], cos(alpha[g])};
+        for (int s = 0; s < M; s++) { /* normalised in float64, then rounded (see the header) */
+            for (int i = 0; i < 5; i++) x[s * 8 + i] = (float)((geo[i] - norm[i]) / norm[8 + i]);
+            for (int i = 0; i < 3; i++) x[s * 8 + 5 + i] = (float)((exp(log_t[s * 3 + i]) - norm[5 + i]) / norm[13 + i]);
         }
         guide_step(cfg, units[cfg[C_TIED] ? 0 : g], x, M, caches[g], slot, seen, bound, log_t, buf);
-        memcpy(out + 3 * (g + 1), log_t, 3 * sizeof(float)); /* set g + 2 is final after guide g + 1 */
-        memmove(log_t, log_t + 3, (size_t)(M - 1) * 3 * sizeof(float));
+        memcpy(out + 3 * (g + 1), log_t, 3 * sizeof(double)); /* set g + 2 is final after guide g + 1 */
+        memmove(log_t, log_t + 3, (size_t)(M - 1) * 3 * sizeof(double));
         M--;
     }
     free(buf);
+    free(log_t);
     return 0;
 }
 

@@ -232,12 +232,12 @@ class NativeStreamingCascade:
         expected = self.lib.pgchtc_unit_floats(self.config.ctypes.data)
         if any(u.size != expected for u in self.units):  # the packer and the kernel disagree on the layout
             raise KernelUnavailable(f"parameter layout mismatch: packed {self.units[0].size} floats, the kernel reads {expected}")
-        self.norm = np.concatenate([_as_f32(cascade.feature_mean), _as_f32(cascade.feature_std)]).astype(np.float32)
+        self.norm = np.concatenate([_as_f32(cascade.feature_mean), _as_f32(cascade.feature_std)]).astype(np.float64)
         self.caches = [np.zeros(max(1, self.lib.pgchtc_cache_floats(self.config.ctypes.data, g)), np.float32)
                        for g in range(cascade.n_guides)]
         ptrs = lambda arrays: (ctypes.c_void_p * max(1, len(arrays)))(*[a.ctypes.data for a in arrays])  # noqa: E731
         self._unit_ptrs, self._cache_ptrs = ptrs(self.units), ptrs(self.caches)
-        self._out = np.empty((n_sets, 3), np.float32)
+        self._out = np.empty((n_sets, 3), np.float64)
         self.reset()
 
     def reset(self) -> None:
@@ -247,7 +247,7 @@ class NativeStreamingCascade:
         self.n_seen = 0
 
     def step(self, sin_q: np.ndarray, alpha: np.ndarray, log_actuator: np.ndarray) -> np.ndarray:
-        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame, float32 of shape (N, 3).
+        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame, float64 of shape (N, 3).
 
         Parameters
         ----------
@@ -259,9 +259,9 @@ class NativeStreamingCascade:
             ``ln`` of the actuator-side tensions [ln N].
         """
         n = self.n_sets
-        sin_q = np.ascontiguousarray(sin_q, dtype=np.float32)
-        alpha = np.ascontiguousarray(alpha, dtype=np.float32)
-        log_actuator = np.ascontiguousarray(log_actuator, dtype=np.float32)
+        sin_q = np.ascontiguousarray(sin_q, dtype=np.float64)
+        alpha = np.ascontiguousarray(alpha, dtype=np.float64)
+        log_actuator = np.ascontiguousarray(log_actuator, dtype=np.float64)
         if sin_q.shape != (n - 1, 4) or alpha.shape != (n - 1,) or log_actuator.shape != (n, 3):
             raise ValueError(f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, 3); "
                              f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}")

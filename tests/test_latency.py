@@ -9,8 +9,10 @@ def test_latency_benchmark_reports_the_design_shape_and_streaming_equals_batch()
         assert key in r
     assert r["n_modules"] == 12 and r["preset"] == "tiny"
     assert r["torch_max_rel_diff_vs_batch"] <= 1e-5  # the same operations as batch inference
-    # Any engine: as close to float64 arithmetic as float32 batch inference is.
+    assert r["max_rel_diff_vs_batch"] <= 1e-5  # the default engine (the C kernel where it builds) too
+    # Any engine: as close to float64 arithmetic as batch inference is.
     assert r["max_rel_diff_vs_float64"] <= 1.5 * r["batch_max_rel_diff_vs_float64"] + 1e-6
     assert r["speedup_vs_torch"] == r["torch_streaming_ms_median"] / r["streaming_ms_median"]
     assert r["naive_frames"] == 4  # timed after the tiny preset's 5-frame history has filled
+    assert r["naive_max_rel_diff_vs_batch"] <= 1e-5  # the baseline computes the same estimates
     assert r["streaming_ms_median"] > 0 and r["speedup"] == r["naive_ms_median"] / r["streaming_ms_median"]

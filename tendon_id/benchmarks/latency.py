@@ -9,12 +9,11 @@ defined by; streaming is timed over the whole trajectory after 10 frames.
 
 Latency does not depend on the weights' values, so the timed model is built untrained:
 random weights, the input normalisation fitted on data, and a non-zero temporal head so
-that the residual matters.  How closely two float32 computations of the cascade agree
-does depend on the weights, since the chain amplifies rounding by ``d ln T_N / d ln T_1``
-(on this random model up to 77; on a trained ``fast`` model 1.3).  So agreement with batch
-inference is measured twice: on the timed model, beside the distance of float32 batch
-inference itself from a float64 run, and on a ``fast`` model trained on ``posterior-3``
-(about 15 s) over a held-out planned path.
+that the residual matters.  How closely two computations of the cascade with float32 units
+agree does depend on the weights, since the chain carries each unit's rounding on to the
+next.  So agreement with batch inference is measured twice: on the timed model, beside the
+distance of batch inference itself from a float64 run, and on a ``fast`` model trained on
+``posterior-3`` (about 15 s) over a held-out planned path.
 """
 
 from __future__ import annotations
@@ -25,7 +24,7 @@ import time
 import numpy as np
 import torch
 
-from learners.cascade import Cascade, CascadeInputs
+from learners.cascade import Cascade, CascadeInputs, normalised_geometry, normalised_tensions
 from learners.presets import preset as get_preset
 from learners.training import fit_feature_norm
 from tendon_id.datasets import load_recipe
@@ -59,12 +58,12 @@ def _naive_step(cascade: Cascade, history: list, sin_q, alpha, log_act) -> torch
     n = log_act.shape[0]
     cfg = cascade.cfg
     span = cfg.n_layers * (cfg.window - 1) + 1  # every past frame the output can depend on
-    log_t = log_act.clone()
+    log_t = log_act.to(torch.float64)  # the chain in float64, as in Cascade.forward
+    mean, std = cascade.feature_mean, cascade.feature_std
     for g in range(cascade.n_guides):
         unit = cascade.unit(g)
         for j in range(g + 1, n):
-            x = torch.cat([sin_q[g], torch.cos(alpha[g])[None], torch.exp(log_t[j])])
-            x = (x - cascade.feature_mean) / cascade.feature_std
+            x = torch.cat([normalised_geometry(sin_q[g], alpha[g], mean, std), normalised_tensions(log_t[j], mean, std)])
             history[g][j].append(x)
             del history[g][j][:-span]
             lr = torch.log(unit.backbone(x[None]))[0]
@@ -72,7 +71,7 @@ def _naive_step(cascade: Cascade, history: list, sin_q, alpha, log_act) -> torch
                 seq = torch.stack(history[g][j])[None]
                 valid = torch.arange(cfg.window)[None, None, :] <= torch.arange(seq.shape[1])[None, :, None]
                 lr = lr + torch.log1p(unit.residual(seq, valid)[0, -1])
-            log_t[j] = log_t[j] + lr
+            log_t[j] = log_t[j] + lr.double()
     return log_t
 
 
@@ -136,7 +135,7 @@ def latency(*, recipe: str = "snake12-paper", preset: str = "paper", frames: int
 
     n = model.n_modules_
     history = [[[] for _ in range(n)] for _ in range(n - 1)]
-    naive_times = []
+    naive_times, naive_out = [], []
     f32 = lambda x: torch.as_tensor(x, dtype=torch.float32)  # noqa: E731
     cfg = model.cascade_.cfg
     # The naive step recomputes every past frame an output depends on; until that history has
@@ -147,9 +146,10 @@ def latency(*, recipe: str = "snake12-paper", preset: str = "paper", frames: int
         sq, al = _sin_q(angles), TransmissionInputs.from_recordings(first, model.geometry_).wrap
         for t in range(timed.stop):
             s = time.perf_counter()
-            _naive_step(model.cascade_, history, f32(sq[t]), f32(al[t]), f32(np.log(act[t])))
+            out = _naive_step(model.cascade_, history, f32(sq[t]), f32(al[t]), f32(np.log(act[t])))
             if t in timed:
                 naive_times.append(time.perf_counter() - s)
+                naive_out.append(np.exp(out.numpy()))
     naive_ms = float(np.median(naive_times) * 1e3)
     agreement = trained_agreement(recipe, seed) if trained else None
     return {"benchmark": "latency", "n_modules": n, "preset": preset, "engine": default.engine_name,
@@ -157,6 +157,7 @@ def latency(*, recipe: str = "snake12-paper", preset: str = "paper", frames: int
             "max_rel_diff_vs_batch": rel(streamed, batch), "torch_streaming_ms_median": torch_ms,
             "speedup_vs_torch": torch_ms / stream_ms, "torch_max_rel_diff_vs_batch": rel(streamed_torch, batch),
             "max_rel_diff_vs_float64": rel(streamed, exact), "batch_max_rel_diff_vs_float64": rel(batch, exact),
+            "naive_max_rel_diff_vs_batch": rel(np.stack(naive_out)[:, 1:], batch[timed.start:timed.stop, 1:]),
             "trained_fast": agreement,
             "frames": first.n_frames, "naive_frames": len(naive_times), "threads": torch.get_num_threads(), "rows": [],
             "seconds": time.perf_counter() - t0}
@@ -169,7 +170,8 @@ def format_latency(r: dict) -> str:
     if r["engine"] != "torch":
         lines.append(f"  streaming, torch engine: {r['torch_streaming_ms_median']:.2f} ms/frame ({r['speedup_vs_torch']:.1f}x slower); "
                      f"max relative difference from batch {r['torch_max_rel_diff_vs_batch']:.2e}")
-    lines.append(f"  naive per-frame: {r['naive_ms_median']:.1f} ms/frame -> streaming is {r['speedup']:.1f}x faster")
+    lines.append(f"  naive per-frame: {r['naive_ms_median']:.1f} ms/frame -> streaming is {r['speedup']:.1f}x faster; "
+                 f"max relative difference from batch {r['naive_max_rel_diff_vs_batch']:.2e}")
     lines.append(f"  float32 batch inference is {r['batch_max_rel_diff_vs_float64']:.2e} from float64")
     a = r.get("trained_fast")
     if a:

@@ -22,11 +22,24 @@ from tendon_id.zoo.base import TransmissionModel
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 
 
-def resolve_device(device: str) -> torch.device:
-    """``"auto"``: CUDA when present, else CPU."""
+def resolve_device(device: str, *, float64: bool = False) -> torch.device:
+    """``"auto"``: CUDA when present, else CPU.
+
+    Raises
+    ------
+    ConfigError
+        For a device string torch does not know, or, with ``float64=True`` (PG-CHTC normalises
+        its inputs and sums its chain in float64), a device without float64 such as Apple's MPS.
+    """
     if device == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    return torch.device(device)
+    try:
+        dev = torch.device(device)
+    except (RuntimeError, TypeError):
+        raise ConfigError(f"device must be 'auto', 'cpu' or 'cuda[:i]'; got {device!r}") from None
+    if float64 and dev.type not in ("cpu", "cuda"):
+        raise ConfigError(f"PG-CHTC runs on 'cpu' or 'cuda' (it needs float64 for its inputs and chain, which MPS lacks); got {device!r}")
+    return dev
 
 
 def _sin_q(angles: np.ndarray) -> np.ndarray:
@@ -163,7 +176,7 @@ class PGCHTC(TransmissionModel):
             raise ConfigError("PG-CHTC needs at least two trajectories (one to train on, one to validate)")
         train, val = allrec.split((1.0 - self.val_fraction, self.val_fraction), seed=self.seed)
         torch.manual_seed(self.seed)
-        device = resolve_device(self.device)
+        device = resolve_device(self.device, float64=True)
         self.geometry_ = TransmissionInputs.from_recordings([train], self.robot).geometry
         self.n_modules_ = allrec.n_modules
         if isinstance(self.prior, dict):
@@ -201,8 +214,9 @@ class PGCHTC(TransmissionModel):
             a["act"][bi, :m] = np.log(inp.actuator[s:e])
             a["act"][bi, m:] = a["act"][bi, m - 1]
             a["since"][bi, :m] = np.arange(m)
-        f32 = lambda x: torch.as_tensor(x, dtype=torch.float32)  # noqa: E731
-        return CascadeInputs(f32(a["sin_q"]), f32(a["alpha"]), f32(a["act"]), torch.as_tensor(a["since"])), bounds, inp
+        # float64: the cascade normalises its inputs and sums its chain in float64 (learners.cascade), the units in theirs.
+        f64 = lambda x: torch.as_tensor(x, dtype=torch.float64)  # noqa: E731
+        return CascadeInputs(f64(a["sin_q"]), f64(a["alpha"]), f64(a["act"]), torch.as_tensor(a["since"])), bounds, inp
 
     def _check(self, data) -> list[Recording]:
         recs = self._check_data(data)
@@ -327,8 +341,8 @@ class PGCHTCStream:
         if threads != 1:
             torch.set_num_threads(1)
         try:
-            f32 = lambda x: torch.as_tensor(x, dtype=torch.float32)  # noqa: E731
-            return self.engine.step(f32(sin_q), f32(alpha), f32(log_act)).numpy()
+            f64 = lambda x: torch.as_tensor(x, dtype=torch.float64)  # noqa: E731
+            return self.engine.step(f64(sin_q), f64(alpha), f64(log_act)).numpy()
         finally:
             if threads != 1:
                 torch.set_num_threads(threads)

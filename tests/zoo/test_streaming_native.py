@@ -60,7 +60,7 @@ def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, re
         exact, _ = c64(CascadeInputs(sin_q.double(), alpha.double(), log_act.double(), torch.arange(L)[None]), torch.arange(n))
     engine = sn.NativeStreamingCascade(cascade, n)
     out = np.stack([engine.step(sin_q[0, t].numpy(), alpha[0, t].numpy(), log_act[0, t].numpy()) for t in range(L)])
-    np.testing.assert_allclose(out, exact[0].numpy(), rtol=0, atol=2e-6)
+    np.testing.assert_allclose(out, exact[0].numpy(), rtol=0, atol=1e-6)  # measured 2.2e-7 to 5.2e-7
     assert np.ptp(out[:, -1] - log_act[0, :, -1].numpy()) > 0.01  # the chain did something frame to frame
     engine.reset()
     again = np.stack([engine.step(sin_q[0, t].numpy(), alpha[0, t].numpy(), log_act[0, t].numpy()) for t in range(7)])
