@@ -172,9 +172,9 @@ def format_latency(r: dict) -> str:
                      f"max relative difference from batch {r['torch_max_rel_diff_vs_batch']:.2e}")
     lines.append(f"  naive per-frame: {r['naive_ms_median']:.1f} ms/frame -> streaming is {r['speedup']:.1f}x faster; "
                  f"max relative difference from batch {r['naive_max_rel_diff_vs_batch']:.2e}")
-    lines.append(f"  float32 batch inference is {r['batch_max_rel_diff_vs_float64']:.2e} from float64")
+    lines.append(f"  batch inference (float32 units) is {r['batch_max_rel_diff_vs_float64']:.2e} from float64")
     a = r.get("trained_fast")
     if a:
         lines.append(f"  trained fast model, held-out planned path: streaming differs from batch by {a['default']:.2e} ({r['engine']} engine), "
-                     f"{a['torch']:.2e} (torch engine); float32 batch is {a['batch_vs_float64']:.2e} from float64")
+                     f"{a['torch']:.2e} (torch engine); batch is {a['batch_vs_float64']:.2e} from float64")
     return "\n".join(lines)
