@@ -24,7 +24,7 @@ import time
 import numpy as np
 import torch
 
-from learners.cascade import Cascade, CascadeInputs, normalised_geometry, normalised_tensions
+from learners.cascade import Cascade, normalised_geometry, normalised_tensions
 from learners.presets import preset as get_preset
 from learners.training import fit_feature_norm
 from tendon_id.datasets import load_recipe
@@ -90,8 +90,7 @@ def float64_batch(model: PGCHTC, rec) -> np.ndarray:
     cin, _, _ = model._cascade_inputs([rec])
     c64 = copy.deepcopy(model.cascade_).double()
     with torch.no_grad():
-        log_t, _ = c64(CascadeInputs(cin.sin_q.double(), cin.alpha.double(), cin.log_actuator.double(), cin.since_start),
-                       torch.arange(model.n_modules_))
+        log_t, _ = c64(cin, torch.arange(model.n_modules_))  # the inputs are float64 already
     out = np.exp(log_t[0, : rec.n_frames].numpy())
     out[:, 0] = rec.actuator[:, 0]
     return out

@@ -17,7 +17,7 @@ from learners.training import Sequences, TrainingError, fit_feature_norm, train_
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.progress import progress_bar
-from tendon_id.geometry import RobotGeometry
+from tendon_id.geometry import RobotGeometry, backbone_wrap
 from tendon_id.zoo.base import TransmissionModel
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 
@@ -43,9 +43,9 @@ def resolve_device(device: str, *, float64: bool = False) -> torch.device:
 
 
 def _sin_q(angles: np.ndarray) -> np.ndarray:
-    """``sin(q_k)`` with ``q_k = (theta_k, theta_{k+1})`` (paper Eq. (2)), shape (T, N-1, 4)."""
+    """``sin(q_k)`` with ``q_k = (theta_k, theta_{k+1})`` (paper Eq. (2)): angles (..., N, 2) in, (..., N-1, 4) out."""
     s = np.sin(angles)
-    return np.concatenate([s[:, :-1], s[:, 1:]], axis=-1)
+    return np.concatenate([s[..., :-1, :], s[..., 1:, :]], axis=-1)
 
 
 def _tqdm_epochs(enable: bool | None):
@@ -285,8 +285,8 @@ class PGCHTCStream:
     engine : {"auto", "native", "torch"}
         ``"native"`` runs each frame in a small C kernel compiled once per machine
         (:mod:`learners.streaming_native`); ``"torch"`` in a traced TorchScript graph
-        (:class:`~learners.cascade.StreamingCascade`).  Both compute the same frame, in
-        float32.  ``"auto"`` (default) takes the kernel where it builds and the model is a
+        (:class:`~learners.cascade.StreamingCascade`).  Both compute the same frame as batch
+        inference: units in float32, inputs and chain in float64.  ``"auto"`` (default) takes the kernel where it builds and the model is a
         float32 CPU model, and the torch engine otherwise (with a warning if the kernel
         failed to build).
 
@@ -320,16 +320,12 @@ class PGCHTCStream:
 
     def step(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
         """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out."""
-        mag = np.linalg.norm(angles, axis=-1)
-        alpha = np.minimum(0.5 * mag[:-1] + 0.5 * mag[1:] + self.alpha0, np.pi)  # paper Eq. (3), backbone wrap
-        s = np.sin(angles)
-        sin_q = np.concatenate([s[:-1], s[1:]], axis=-1)
-        log_act = np.log(actuator)
+        sin_q, alpha, log_act = _sin_q(angles), backbone_wrap(angles, self.alpha0), np.log(actuator)
         if self.engine_name == "native":
             out = self.engine.step(sin_q, alpha, log_act)
         else:
             out = self._torch_step(sin_q, alpha, log_act)
-        est = np.exp(out.astype(np.float64))
+        est = np.exp(out)
         est[0] = actuator[0]
         return est
 
@@ -341,8 +337,7 @@ class PGCHTCStream:
         if threads != 1:
             torch.set_num_threads(1)
         try:
-            f64 = lambda x: torch.as_tensor(x, dtype=torch.float64)  # noqa: E731
-            return self.engine.step(f64(sin_q), f64(alpha), f64(log_act)).numpy()
+            return self.engine.step(*map(torch.as_tensor, (sin_q, alpha, log_act))).numpy()
         finally:
             if threads != 1:
                 torch.set_num_threads(threads)
