@@ -9,7 +9,7 @@ from tendon_id.sim.effects import EFFECT_NAMES, EFFECT_TYPES, Effects, parse_eff
 from tendon_id.sim.protocols import PAPER_FRAMES, PROTOCOL_NAMES, ProtocolSettings
 from tendon_id.sim.recipe import Recipe
 from tendon_id.sim.sensors import Sensors
-from tendon_id.sim.simulate import SimulationResult, simulate
+from tendon_id.sim.simulate import Session, SimulationResult, simulate
 from tendon_id.sim.transmission import FrictionLaw, TransmissionResult, transmit
 
 __all__ = [
@@ -23,6 +23,7 @@ __all__ = [
     "ProtocolSettings",
     "Recipe",
     "Sensors",
+    "Session",
     "SimulationResult",
     "TransmissionResult",
     "parse_effect_names",

@@ -23,7 +23,31 @@ class Contact:
 
 @dataclass(frozen=True)
 class StickSlip:
-    """``stick_slip``: the nonsmooth capstan play operator (paper §III-B, ref. [12])."""
+    """``stick_slip``: the nonsmooth capstan play operator (paper §III-B, ref. [12]).
+
+    Parameters
+    ----------
+    driver : {"tension", "motion"}
+        What makes a guide slip. ``"tension"`` (default, DESIGN §5): only a change of the
+        tension entering the guide, as in a tendon-sheath whose path is fixed (Kaneko).
+        ``"motion"``: also the tendon's sliding through the guide when the joints beyond it
+        move and lengthen or shorten its path; a sliding tendon is on the slip edge of its
+        direction of motion (kinetic Coulomb friction), whatever the tension does.
+    slide_threshold : float
+        Path-length rate beyond the guide [m/s] above which the tendon slides rather than
+        taking the change up in elastic strain (``"motion"`` only). Default 1e-4 (0.01 mm per
+        0.1 s frame, below the ~0.02 mm a 70 mm segment of a 40 kN tendon stretches across one
+        guide's stick band at 100 N).
+    """
+
+    driver: str = "tension"
+    slide_threshold: float = 1e-4
+
+    def __post_init__(self) -> None:
+        if self.driver not in ("tension", "motion"):
+            raise ConfigError(f"stick_slip.driver must be 'tension' or 'motion', got {self.driver!r}")
+        if not self.slide_threshold > 0:
+            raise ConfigError(f"stick_slip.slide_threshold must be a positive speed in m/s, got {self.slide_threshold}")
 
 
 @dataclass(frozen=True)

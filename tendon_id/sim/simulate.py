@@ -20,6 +20,32 @@ _STREAM_MOTION, _STREAM_TENSION, _STREAM_NOISE, _STREAM_POSES, _STREAM_TRANSITIO
 
 
 @dataclass(frozen=True)
+class Session:
+    """The whole simulated session behind a recording, unlogged frames included.
+
+    With ``session = "continuous"`` the robot moves on between logged trajectories; a
+    streaming estimator running all along would have seen those frames' inputs. This is
+    what it would have seen, noise-free, and what the truth physics ran on.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (S, N, 2)
+        True joint angles of every session frame [rad].
+    actuator : ndarray, shape (S, N, 3)
+        True actuator-side tensions [N].
+    reset : ndarray of bool, shape (S,)
+        Where the hysteresis and lag restart (fresh pretension).
+    logged : ndarray of bool, shape (S,)
+        True for the frames that are rows of the recording, in order.
+    """
+
+    theta: NDArray[np.float64]
+    actuator: NDArray[np.float64]
+    reset: NDArray[np.bool_]
+    logged: NDArray[np.bool_]
+
+
+@dataclass(frozen=True)
 class SimulationResult:
     """A simulated recording and the hidden state behind it.
 
@@ -35,6 +61,8 @@ class SimulationResult:
         Joint angles before encoder quantisation [rad].
     wrap : ndarray, shape (T, N-1)
         Backbone wrap per guide [rad].
+    session : Session
+        The whole session, unlogged frames included.
     """
 
     recording: Recording
@@ -42,6 +70,7 @@ class SimulationResult:
     sigma: NDArray[np.int8]
     theta_true: NDArray[np.float64]
     wrap: NDArray[np.float64]
+    session: Session
 
 
 def _rng(seed: int, protocol: str, trajectory: int, stream: int) -> np.random.Generator:
@@ -190,4 +219,5 @@ def simulate(
     rec = Recording.from_arrays(
         trajectory=trajectory, t=t_local, angles=angles, actuator=actuator, terminal=terminal, joint_truth=joint_truth, meta=meta
     )
-    return SimulationResult(recording=rec, chain=chain, sigma=sigma, theta_true=theta_true, wrap=wrap)
+    return SimulationResult(recording=rec, chain=chain, sigma=sigma, theta_true=theta_true, wrap=wrap,
+                            session=Session(theta=session_theta, actuator=session_act, reset=reset, logged=logged))

@@ -24,6 +24,7 @@ from friction_models import (
     guide_wear_factors,
     hard_contact_gate,
     play_operator_edges,
+    slip_state,
     velocity_dependent_mu,
     viscoelastic_lag,
 )
@@ -145,15 +146,24 @@ def sliding_speed(theta: NDArray, geometry: RobotGeometry, reset: NDArray, dt: f
     return out
 
 
-def _sliding_speed_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) -> NDArray:
-    """:func:`sliding_speed` for one guide (index ``g``) and the sets beyond it, shape (T, N-g-1, 3).
+def _path_rate_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) -> NDArray:
+    """Signed rate [m/s] at which the path beyond guide index ``g`` lengthens, shape (T, N-g-1, 3).
 
-    The projected bend is linear in theta, so the joint-angle rates beyond guide ``k`` are
-    summed first: ``sum_{m=k+1..j} theta_m = C_j - C_k`` with ``C`` the running sum over joints.
+    Bending joint ``m`` by ``b_m(psi)`` shortens the tendon's path across it by ``r b_m``
+    (small angles, hole radius ``r``), and the projected bend is linear in theta, so the
+    joint-angle rates beyond guide ``k`` are summed first:
+    ``sum_{m=k+1..j} theta_m = C_j - C_k`` with ``C`` the running sum over joints.
+    Positive: the tendon is drawn distally through the guide (reverse slip); negative:
+    towards the actuator (forward slip).
     """
     beyond = cum_rate[:, g + 1 :] - cum_rate[:, g, None]  # sum of theta_m rates, m = k+1..j
     psi_on = psi[g + 1 :]
-    return hole_radius * np.abs(beyond[..., 0, None] * np.cos(psi_on) + beyond[..., 1, None] * np.sin(psi_on))
+    return -hole_radius * (beyond[..., 0, None] * np.cos(psi_on) + beyond[..., 1, None] * np.sin(psi_on))
+
+
+def _sliding_speed_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) -> NDArray:
+    """:func:`sliding_speed` for one guide (index ``g``) and the sets beyond it, shape (T, N-g-1, 3)."""
+    return np.abs(_path_rate_at(cum_rate, g, psi, hole_radius))
 
 
 def transmit(
@@ -190,11 +200,12 @@ def transmit(
         ux, uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
     elif wrap_model == "projected":
         bend_abs = np.abs(projected_bend(theta, psi))  # (T, N joints, N sets, 3)
-    if "velocity_friction" in effects:
-        vf = effects.get("velocity_friction")
-        cum_rate = _backward_rate(np.cumsum(theta, axis=1), reset, dt)  # d/dt of sum_{m<=j} theta_m
-    wear = guide_wear_factors(n - 1, effects.get("guide_wear").guides) if "guide_wear" in effects else None
     stick_slip = "stick_slip" in effects
+    slide = effects.get("stick_slip") if stick_slip and effects.get("stick_slip").driver == "motion" else None
+    if "velocity_friction" in effects or slide is not None:
+        cum_rate = _backward_rate(np.cumsum(theta, axis=1), reset, dt)  # d/dt of sum_{m<=j} theta_m
+    vf = effects.get("velocity_friction") if "velocity_friction" in effects else None
+    wear = guide_wear_factors(n - 1, effects.get("guide_wear").guides) if "guide_wear" in effects else None
     bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
     visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
 
@@ -221,7 +232,7 @@ def transmit(
 
             bad = float(np.max(np.broadcast_to(alpha, mu.shape)[mu < 0]))
             raise ConfigError(f"the friction law is negative at wraps this motion reaches ({bad:.2f} rad at guide {g + 1}); use a law with mu >= 0 there")
-        if "velocity_friction" in effects:
+        if vf is not None:
             mu = velocity_dependent_mu(mu, _sliding_speed_at(cum_rate, g, psi, geometry.hole_radius), vf.v_ref, vf.stribeck_drop, vf.v_stribeck)
         ph = mu * (alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha)
         if wear is not None:
@@ -234,7 +245,14 @@ def transmit(
             hi = np.log(np.exp(x + ph) + loss)
         else:
             lo, hi = x - ph, x + ph
-        if stick_slip:
+        if slide is not None:
+            # A tendon sliding through the guide sits on the edge of its direction of motion:
+            # its step map is the constant map onto that edge (forward: lo, reverse: hi).
+            v = _path_rate_at(cum_rate, g, psi, geometry.hole_radius)
+            fwd, rev = v < -slide.slide_threshold, v > slide.slide_threshold
+            y = play_operator_edges(np.where(rev, hi, lo), np.where(fwd, lo, hi), reset).log_out
+            sig = slip_state(y, lo, hi)
+        elif stick_slip:
             res = play_operator_edges(lo, hi, reset)
             y, sig = res.log_out, res.sigma
         else:

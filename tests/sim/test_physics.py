@@ -154,3 +154,87 @@ def test_sliding_speed_is_the_rate_of_path_length_beyond_the_guide():
     assert np.all(v[0] == 0)  # first frame of a trajectory: no rate yet
     assert np.all(v[:, 2] == 0)  # guide 3 lies beyond joint 3: nothing distal of it moves
     assert np.all(v[:, :, :2] == 0)  # sets 1 and 2 do not cross joint 3
+
+
+def _three_module_scan():
+    """Joint 3 bends to +x and back at 1 rad/s, with holds; actuator tensions constant."""
+    from tendon_id.geometry import RobotGeometry
+
+    geometry = RobotGeometry(n_modules=3, azimuth_step=0.0)
+    ramp = 0.1 * np.arange(1, 4)  # rad, dt = 0.1 s
+    bend = np.r_[np.zeros(3), ramp, np.full(4, 0.3), ramp[::-1] - 0.1, np.zeros(4)]
+    theta = np.zeros((bend.size, 3, 2))
+    theta[:, 0, 0] = 0.2  # joints 1 and 2 held bent, so both guides of set 3 are in contact
+    theta[:, 1, 0] = 0.2
+    theta[:, 2, 0] = bend
+    actuator = np.full((bend.size, 3, 3), 100.0)
+    reset = np.zeros(bend.size, dtype=bool)
+    reset[0] = True
+    return geometry, theta, actuator, reset
+
+
+@pytest.mark.parametrize("driver", ["tension", "motion"])
+def test_motion_driven_slip_follows_the_tendon_through_the_guides(driver):
+    """With ``driver="motion"`` a tendon drawn through its guides by distal joint motion sits on
+    the slip edge of its direction; with constant actuator tension the tension-driven play
+    operator never leaves the edge it started on (DESIGN §5)."""
+    from tendon_id.sim.effects import Effects
+    from tendon_id.sim.transmission import FrictionLaw, transmit
+
+    geometry, theta, actuator, reset = _three_module_scan()
+    law = FrictionLaw()
+    effects = Effects(enabled=("stick_slip",), params={"stick_slip": {"driver": driver}})
+    res = transmit(theta, actuator, reset, geometry, law, effects, 0.1)
+    # Independent capstan exponents of set 3 (backbone wrap, paper Eqs. (3)-(5)), per frame and tendon.
+    mag = np.abs(theta[..., 0])
+    alpha = 0.5 * mag[:, :-1] + 0.5 * mag[:, 1:] + geometry.alpha_0  # (T, 2 guides)
+    phi = affine_cosine_mu(alpha[..., None], np.array(law.A), np.array(law.B)) * alpha[..., None]
+    total = phi.sum(axis=1)  # (T, 3): both guides
+    log_ratio = np.log(res.chain[:, 2, 2] / actuator[:, 2])
+    bending_out, bending_back = slice(3, 6), slice(10, 13)
+    if driver == "tension":
+        # Constant input and a cone that only widens from the start (joint 3 starts straight): the
+        # tendon never leaves the forward-slip edge it started on, though it slides all the time.
+        np.testing.assert_allclose(log_ratio, np.broadcast_to(-total[0], log_ratio.shape), atol=1e-12)
+        assert not np.any(res.sigma[:, :, 2] == -1)
+        return
+    # Tendon 1 (psi = 0) is on the inside of joint 3's bend: reeled in, forward slip ...
+    np.testing.assert_allclose(log_ratio[bending_out, 0], -total[bending_out, 0], atol=1e-12)
+    assert np.all(res.sigma[bending_out, :, 2, 0] == 1)
+    # ... and paid out on the way back: reverse slip, the tension rises through the guides.
+    np.testing.assert_allclose(log_ratio[bending_back, 0], total[bending_back, 0], atol=1e-12)
+    assert np.all(res.sigma[bending_back, :, 2, 0] == -1)
+    # Tendons 2 and 3 (psi = +-120 deg) move the other way.
+    np.testing.assert_allclose(log_ratio[bending_out, 1:], total[bending_out, 1:], atol=1e-12)
+    np.testing.assert_allclose(log_ratio[bending_back, 1:], -total[bending_back, 1:], atol=1e-12)
+    # Holds keep the last slid state (stick): the wrap is constant there, so is the tension.
+    hold = slice(7, 10)
+    np.testing.assert_allclose(res.chain[hold, 2, 2], np.broadcast_to(res.chain[6, 2, 2], (3, 3)), rtol=1e-12)
+    # Sets 1 and 2 do not cross joint 3: they never slide and stay on their starting edge.
+    np.testing.assert_allclose(np.log(res.chain[:, 1, 1] / actuator[:, 1]), -phi[:, 0], atol=1e-12)
+
+
+def test_stick_slip_driver_is_validated():
+    from tendon_id.sim.effects import Effects
+
+    with pytest.raises(ConfigError, match="driver"):
+        Effects(enabled=("stick_slip",), params={"stick_slip": {"driver": "magic"}})
+    with pytest.raises(ConfigError, match="slide_threshold"):
+        Effects(enabled=("stick_slip",), params={"stick_slip": {"slide_threshold": 0.0}})
+
+
+@pytest.mark.parametrize("session", ["continuous", "fresh"])
+def test_session_holds_what_the_truth_ran_on(recipe, session):
+    """``SimulationResult.session`` replays to the recorded chain on its logged frames."""
+    from dataclasses import replace
+
+    from tendon_id.sim.transmission import transmit
+
+    rec = replace(recipe, session=session)
+    res = simulate(rec, "posterior-3", frames=600, seed=3)
+    ses = res.session
+    assert ses.logged.sum() == res.recording.n_frames
+    assert (len(ses.logged) > res.recording.n_frames) == (session == "continuous")  # unlogged moves between logs
+    np.testing.assert_array_equal(ses.theta[ses.logged], res.theta_true)
+    replay = transmit(ses.theta, ses.actuator, ses.reset, rec.robot_for("posterior-3"), rec.friction, rec.effects, rec.dt)
+    np.testing.assert_array_equal(replay.chain[ses.logged], res.chain)
