@@ -14,6 +14,12 @@
  * Here each product is one register-blocked loop over GCC vector types, which the
  * compiler maps to the widest SIMD the machine has.
  *
+ * Two cores: f_theta and g_phi of a guide step read the same unit input and nothing of
+ * each other, and cost about the same for the paper preset (0.40 M and 0.41 M multiply-adds
+ * per row), so with threads = 2 a helper thread runs g_phi while the calling thread runs
+ * f_theta, meeting once per guide step.  Each part does the same arithmetic in the same
+ * order either way, so one and two threads give the same bits.
+ *
  * Layouts (float32 unless said, C order):
  *   units[u]  : one unit's parameters, in the order the Python packer writes them
  *               (learners/streaming_native.py, _pack_unit).
@@ -21,6 +27,9 @@
  *               (S_g, H, window, dk) with S_g = n_sets - 1 - g streams.
  */
 #include <math.h>
+#include <pthread.h>
+#include <sched.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -131,13 +140,51 @@ void pgchtc_erf(const float *x, float *y, int n) {
     for (int i = 0; i < n; i++) y[i] = erf_rational(x[i]);
 }
 
+/* Sums over a row, VL lanes at a time: a scalar loop is one chain of dependent adds, which
+ * the compiler may not reorder (IEEE), so it runs at the adder's latency, not its rate.
+ * A different order of the same sum: agreement with torch is to float32 rounding, as for
+ * the matrix products. */
+static inline float hsum(vec v) {
+    float s = 0.f;
+    for (int j = 0; j < VL; j++) s += v[j];
+    return s;
+}
+
+static inline float dot(const float *a, const float *b, int n) {
+    vec acc = {0};
+    int i = 0;
+    for (; i + VL <= n; i += VL) acc += vload(a + i) * vload(b + i);
+    float s = hsum(acc);
+    for (; i < n; i++) s += a[i] * b[i];
+    return s;
+}
+
+static inline float row_sum(const float *a, int n) {
+    vec acc = {0};
+    int i = 0;
+    for (; i + VL <= n; i += VL) acc += vload(a + i);
+    float s = hsum(acc);
+    for (; i < n; i++) s += a[i];
+    return s;
+}
+
+static inline float centred_square_sum(const float *a, int n, float c) {
+    vec acc = {0}, cv = (vec){0} + c;
+    int i = 0;
+    for (; i + VL <= n; i += VL) {
+        vec d = vload(a + i) - cv;
+        acc += d * d;
+    }
+    float s = hsum(acc);
+    for (; i < n; i++) s += (a[i] - c) * (a[i] - c);
+    return s;
+}
+
 static void layer_norm(const float *x, int M, int D, const float *g, const float *b, float *y) { /* eps 1e-5, as nn.LayerNorm */
     for (int m = 0; m < M; m++) {
         const float *r = x + (size_t)m * D;
-        float mean = 0.f, var = 0.f;
-        for (int i = 0; i < D; i++) mean += r[i];
-        mean /= D;
-        for (int i = 0; i < D; i++) var += (r[i] - mean) * (r[i] - mean);
+        float mean = row_sum(r, D) / D;
+        float var = centred_square_sum(r, D, mean);
         float inv = 1.0f / sqrtf(var / D + 1e-5f);
         for (int i = 0; i < D; i++) y[(size_t)m * D + i] = (r[i] - mean) * inv * g[i] + b[i];
     }
@@ -153,15 +200,13 @@ static int widest(const int *cfg) {
     return cfg[C_FF] > w ? cfg[C_FF] : w;
 }
 
-/* One guide step for M streams: ln r = clamp(ln r_MLP + ln(1 + r_TR)) (paper Eq. (8)), added to log_t (M, 3, float64).
- * x: the normalised unit inputs (M, 8) of paper Eq. (7).  buf: scratch_floats(cfg, M) floats. */
-static void guide_step(const int *cfg, const float *P, const float *x, int M, float *cache, int slot, int seen,
-                       float bound, double *log_t, float *buf) {
+/* f_theta of a guide step: ln r_MLP (M, 3) into ratio (paper Eq. (8), its first factor).
+ * x: the normalised unit inputs (M, 8) of paper Eq. (7).  buf: 2 * M * widest(cfg) floats.
+ * Returns where the unit's g_phi parameters start. */
+static const float *backbone_step(const int *cfg, const float *P, const float *x, int M, float *buf, float *ratio) {
     int n_hidden = cfg[C_N_HIDDEN], wide = widest(cfg);
-    int D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
-    float *a = buf, *b = buf + (size_t)M * wide, *h = b + (size_t)M * wide, *r = h + (size_t)M * D;
-
-    /* f_theta: (Linear [BN folded] -> GELU) per hidden layer, then Linear -> softplus + 0.01 */
+    float *a = buf, *b = buf + (size_t)M * wide;
+    /* (Linear [BN folded] -> GELU) per hidden layer, then Linear -> softplus + 0.01 */
     const float *in = x;
     int K = 8;
     for (int i = 0; i < n_hidden; i++) {
@@ -172,79 +217,92 @@ static void guide_step(const int *cfg, const float *P, const float *x, int M, fl
         gelu(out, (size_t)M * N);
         in = out, K = N;
     }
-    float *ratio = r; /* (M, 3) */
     linear(in, M, K, P, P + (size_t)K * 3, 3, ratio);
     P += (size_t)K * 3 + 3;
     for (int i = 0; i < M * 3; i++) ratio[i] = logf(softplus(ratio[i]) + 0.01f);
+    return P;
+}
 
-    if (cfg[C_RESIDUAL]) {
-        int dk = D / H;
-        float scale = 1.0f / sqrtf((float)dk);
-        linear(x, M, 8, P, P + 8 * D, D, h); /* embed */
-        P += 8 * D + D;
-        for (int l = 0; l < cfg[C_LAYERS]; l++) {
-            const float *ln1g = P, *ln1b = P + D, *Wqkv = P + 2 * D, *bqkv = Wqkv + (size_t)D * 3 * D;
-            const float *Wo = bqkv + 3 * D, *bo = Wo + (size_t)D * D, *lag_bias = bo + D;
-            const float *ln2g = lag_bias + H * W, *ln2b = ln2g + D, *W1 = ln2b + D, *b1 = W1 + (size_t)D * F;
-            const float *W2 = b1 + F, *b2 = W2 + (size_t)F * D;
-            P = b2 + D;
-            float *keys = cache + (size_t)2 * l * M * H * W * dk, *vals = keys + (size_t)M * H * W * dk;
-            layer_norm(h, M, D, ln1g, ln1b, a);
-            linear(a, M, D, Wqkv, bqkv, 3 * D, b); /* q | k | v per row */
-            float *att = a; /* (M, D): attention output before the out projection */
-            for (int s = 0; s < M; s++)
-                for (int hd = 0; hd < H; hd++) {
-                    const float *q = b + (size_t)s * 3 * D + hd * dk;
-                    float *K_ = keys + ((size_t)(s * H + hd) * W) * dk, *V_ = vals + ((size_t)(s * H + hd) * W) * dk;
-                    memcpy(K_ + (size_t)slot * dk, q + D, dk * sizeof(float));
-                    memcpy(V_ + (size_t)slot * dk, q + 2 * D, dk * sizeof(float));
-                    float sc[W], mx = -INFINITY;
-                    for (int w = 0; w < W; w++) {
-                        int lag = ((slot - w) % W + W) % W;
-                        if (lag > seen) { sc[w] = -INFINITY; continue; }
-                        float d = 0.f;
-                        for (int i = 0; i < dk; i++) d += q[i] * K_[(size_t)w * dk + i];
-                        sc[w] = d * scale + lag_bias[hd * W + lag];
-                        if (sc[w] > mx) mx = sc[w];
-                    }
-                    float z = 0.f;
-                    for (int w = 0; w < W; w++) { sc[w] = sc[w] == -INFINITY ? 0.f : expf(sc[w] - mx); z += sc[w]; }
-                    float *o = att + (size_t)s * D + hd * dk;
-                    for (int i = 0; i < dk; i++) o[i] = 0.f;
-                    for (int w = 0; w < W; w++) {
-                        if (sc[w] == 0.f) continue;
-                        float p = sc[w] / z;
-                        for (int i = 0; i < dk; i++) o[i] += p * V_[(size_t)w * dk + i];
-                    }
+/* g_phi of a guide step: the temporal head's pre-tanh output (M, 3) into tr, reading and
+ * updating the guide's ring caches at `slot`.  P: the unit's g_phi parameters.
+ * buf: M * (2 * widest(cfg) + d_model) floats. */
+static void residual_step(const int *cfg, const float *P, const float *x, int M, float *cache, int slot, int seen,
+                          float *buf, float *tr) {
+    int wide = widest(cfg);
+    int D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
+    float *a = buf, *b = buf + (size_t)M * wide, *h = b + (size_t)M * wide;
+    int dk = D / H;
+    float scale = 1.0f / sqrtf((float)dk);
+    linear(x, M, 8, P, P + 8 * D, D, h); /* embed */
+    P += 8 * D + D;
+    for (int l = 0; l < cfg[C_LAYERS]; l++) {
+        const float *ln1g = P, *ln1b = P + D, *Wqkv = P + 2 * D, *bqkv = Wqkv + (size_t)D * 3 * D;
+        const float *Wo = bqkv + 3 * D, *bo = Wo + (size_t)D * D, *lag_bias = bo + D;
+        const float *ln2g = lag_bias + H * W, *ln2b = ln2g + D, *W1 = ln2b + D, *b1 = W1 + (size_t)D * F;
+        const float *W2 = b1 + F, *b2 = W2 + (size_t)F * D;
+        P = b2 + D;
+        float *keys = cache + (size_t)2 * l * M * H * W * dk, *vals = keys + (size_t)M * H * W * dk;
+        layer_norm(h, M, D, ln1g, ln1b, a);
+        linear(a, M, D, Wqkv, bqkv, 3 * D, b); /* q | k | v per row */
+        float *att = a; /* (M, D): attention output before the out projection */
+        for (int s = 0; s < M; s++)
+            for (int hd = 0; hd < H; hd++) {
+                const float *q = b + (size_t)s * 3 * D + hd * dk;
+                float *K_ = keys + ((size_t)(s * H + hd) * W) * dk, *V_ = vals + ((size_t)(s * H + hd) * W) * dk;
+                memcpy(K_ + (size_t)slot * dk, q + D, dk * sizeof(float));
+                memcpy(V_ + (size_t)slot * dk, q + 2 * D, dk * sizeof(float));
+                float sc[W], mx = -INFINITY;
+                for (int w = 0; w < W; w++) {
+                    int lag = ((slot - w) % W + W) % W;
+                    if (lag > seen) { sc[w] = -INFINITY; continue; }
+                    sc[w] = dot(q, K_ + (size_t)w * dk, dk) * scale + lag_bias[hd * W + lag];
+                    if (sc[w] > mx) mx = sc[w];
                 }
-            linear(att, M, D, Wo, bo, D, b);
-            for (size_t i = 0; i < (size_t)M * D; i++) h[i] += b[i];
-            layer_norm(h, M, D, ln2g, ln2b, a);
-            linear(a, M, D, W1, b1, F, b);
-            gelu(b, (size_t)M * F);
-            linear(b, M, F, W2, b2, D, a);
-            for (size_t i = 0; i < (size_t)M * D; i++) h[i] += a[i];
-        }
-        layer_norm(h, M, D, P, P + D, a);
-        P += 2 * D;
-        float *tr = b;
-        linear(a, M, D, P, P + (size_t)D * 3, 3, tr);
-        for (int i = 0; i < M * 3; i++) ratio[i] += log1pf(0.5f * tanhf(tr[i]));
+                float z = 0.f;
+                for (int w = 0; w < W; w++) { sc[w] = sc[w] == -INFINITY ? 0.f : expf(sc[w] - mx); z += sc[w]; }
+                float *o = att + (size_t)s * D + hd * dk;
+                for (int i = 0; i < dk; i++) o[i] = 0.f;
+                for (int w = 0; w < W; w++) {
+                    if (sc[w] == 0.f) continue;
+                    float p = sc[w] / z;
+                    for (int i = 0; i < dk; i++) o[i] += p * V_[(size_t)w * dk + i];
+                }
+            }
+        linear(att, M, D, Wo, bo, D, b);
+        for (size_t i = 0; i < (size_t)M * D; i++) h[i] += b[i];
+        layer_norm(h, M, D, ln2g, ln2b, a);
+        linear(a, M, D, W1, b1, F, b);
+        gelu(b, (size_t)M * F);
+        linear(b, M, F, W2, b2, D, a);
+        for (size_t i = 0; i < (size_t)M * D; i++) h[i] += a[i];
     }
+    layer_norm(h, M, D, P, P + D, a);
+    P += 2 * D;
+    linear(a, M, D, P, P + (size_t)D * 3, 3, tr);
+}
+
+/* ln r = clamp(ln r_MLP + ln(1 + 0.5 tanh(tr))) (paper Eq. (8)), added to log_t (M, 3, float64). */
+static void add_log_ratio(const float *ratio, const float *tr, int M, float bound, double *log_t) {
     for (int i = 0; i < M * 3; i++) {
-        float v = ratio[i] < -bound ? -bound : (ratio[i] > bound ? bound : ratio[i]);
+        float v = tr ? ratio[i] + log1pf(0.5f * tanhf(tr[i])) : ratio[i];
+        v = v < -bound ? -bound : (v > bound ? bound : v);
         log_t[i] += (double)v;
     }
 }
 
-/* Size in floats of the scratch buffer guide_step needs for M streams. */
-static size_t scratch_floats(const int *cfg, int M) { return (size_t)M * (2 * widest(cfg) + cfg[C_D] + 3) + 64; }
+/* Size in floats of the scratch buffer one part of a guide step (backbone_step or residual_step) needs for M streams. */
+static size_t scratch_floats(const int *cfg, int M) { return (size_t)M * (2 * widest(cfg) + cfg[C_D]) + 64; }
+
+/* Floats of f_theta's parameters, at the start of a packed unit. */
+static long backbone_floats(const int *cfg) {
+    long n = 0, K = 8;
+    for (int i = 0; i < cfg[C_N_HIDDEN]; i++) n += K * cfg[C_HIDDEN0 + i] + cfg[C_HIDDEN0 + i], K = cfg[C_HIDDEN0 + i];
+    return n + K * 3 + 3;
+}
 
 /* Floats in one unit's packed parameters (the Python packer checks its layout against this). */
 long pgchtc_unit_floats(const int *cfg) {
-    long n = 0, K = 8, D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
-    for (int i = 0; i < cfg[C_N_HIDDEN]; i++) n += K * cfg[C_HIDDEN0 + i] + cfg[C_HIDDEN0 + i], K = cfg[C_HIDDEN0 + i];
-    n += K * 3 + 3;
+    long n = backbone_floats(cfg), D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
     if (cfg[C_RESIDUAL])
         n += 8 * D + D + cfg[C_LAYERS] * (2 * D + D * 3 * D + 3 * D + D * D + D + H * W + 2 * D + D * F + F + F * D + D) + 2 * D + D * 3 + 3;
     return n;
@@ -256,17 +314,58 @@ long pgchtc_cache_floats(const int *cfg, int g) {
     return 2L * cfg[C_LAYERS] * (cfg[C_N_SETS] - 1 - g) * cfg[C_WINDOW] * cfg[C_D];
 }
 
+/* What the g_phi helper thread of a frame works on: guide `step` is posted when `go` reaches
+ * step + 1 and finished when `done` does; go = -1 ends the thread. */
+typedef struct {
+    const int *cfg;
+    const float *const *units;
+    float *const *caches;
+    int slot, seen;
+    const float *x; /* the posted guide's unit inputs */
+    int guide, M;
+    float *buf, *tr;
+    atomic_int go, done;
+} helper_t;
+
+static int wait_for(atomic_int *flag, int value) { /* spin (the wait is a few microseconds), yielding if descheduled */
+    for (unsigned spins = 0;; spins++) {
+        int v = atomic_load_explicit(flag, memory_order_acquire);
+        if (v == value || v < 0) return v;
+        if (spins > 4096) sched_yield();
+    }
+}
+
+static void *helper_main(void *arg) {
+    helper_t *hp = arg;
+    for (int step = 0;; step++) {
+        if (wait_for(&hp->go, step + 1) < 0) return NULL;
+        const int *cfg = hp->cfg;
+        const float *P = hp->units[cfg[C_TIED] ? 0 : hp->guide] + backbone_floats(cfg);
+        residual_step(cfg, P, hp->x, hp->M, hp->caches[hp->guide], hp->slot, hp->seen, hp->buf, hp->tr);
+        atomic_store_explicit(&hp->done, step + 1, memory_order_release);
+    }
+}
+
 /* The frame: ln T_hat of every set at its own joint, written to out (n_sets, 3).
  * Inputs and output in float64: norm, the feature mean (8) then std (8); sin_q (n_sets - 1, 4);
- * alpha (n_sets - 1); log_act and out (n_sets, 3).  seen: min(frames already seen, window - 1). */
+ * alpha (n_sets - 1); log_act and out (n_sets, 3).  seen: min(frames already seen, window - 1).
+ * threads: 1, or 2 to run g_phi on a helper thread beside f_theta (same result).
+ * Returns 0, or 1 if memory or the thread could not be had. */
 int pgchtc_frame(const int *cfg, const float *const *units, const double *norm, float bound, const double *sin_q,
-                 const double *alpha, const double *log_act, int slot, int seen, float *const *caches, double *out) {
-    int n = cfg[C_N_SETS], G = cfg[C_N_GUIDES];
+                 const double *alpha, const double *log_act, int slot, int seen, float *const *caches, double *out,
+                 int threads) {
+    int n = cfg[C_N_SETS], G = cfg[C_N_GUIDES], residual = cfg[C_RESIDUAL];
     int M0 = n - 1;
-    float *buf = malloc(sizeof(float) * (scratch_floats(cfg, M0) + (size_t)M0 * 8));
+    size_t part = scratch_floats(cfg, M0);
+    float *buf = malloc(sizeof(float) * (2 * part + (size_t)M0 * (8 + 3 + 3)));
     double *log_t = malloc(sizeof(double) * (size_t)M0 * 3);
     if (!buf || !log_t) { free(buf); free(log_t); return 1; }
-    float *x = buf + scratch_floats(cfg, M0);
+    float *x = buf + 2 * part, *ratio = x + (size_t)M0 * 8, *tr = ratio + (size_t)M0 * 3;
+    helper_t hp = {cfg, units, caches, slot, seen, x, 0, 0, buf + part, tr};
+    atomic_init(&hp.go, 0);
+    atomic_init(&hp.done, 0);
+    pthread_t helper;
+    int two = residual && threads >= 2 && M0 > 0 && pthread_create(&helper, NULL, helper_main, &hp) == 0;
     memcpy(out, log_act, 3 * sizeof(double)); /* set 1 passes no guide */
     memcpy(log_t, log_act + 3, (size_t)M0 * 3 * sizeof(double));
     int M = M0;
@@ -276,10 +375,24 @@ int pgchtc_frame(const int *cfg, const float *const *units, const double *norm, 
             for (int i = 0; i < 5; i++) x[s * 8 + i] = (float)((geo[i] - norm[i]) / norm[8 + i]);
             for (int i = 0; i < 3; i++) x[s * 8 + 5 + i] = (float)((exp(log_t[s * 3 + i]) - norm[5 + i]) / norm[13 + i]);
         }
-        guide_step(cfg, units[cfg[C_TIED] ? 0 : g], x, M, caches[g], slot, seen, bound, log_t, buf);
+        const float *unit = units[cfg[C_TIED] ? 0 : g];
+        if (two) {
+            hp.guide = g, hp.M = M;
+            atomic_store_explicit(&hp.go, g + 1, memory_order_release);
+            backbone_step(cfg, unit, x, M, buf, ratio);
+            wait_for(&hp.done, g + 1);
+        } else {
+            const float *P = backbone_step(cfg, unit, x, M, buf, ratio);
+            if (residual) residual_step(cfg, P, x, M, caches[g], slot, seen, buf + part, tr);
+        }
+        add_log_ratio(ratio, residual ? tr : NULL, M, bound, log_t);
         memcpy(out + 3 * (g + 1), log_t, 3 * sizeof(double)); /* set g + 2 is final after guide g + 1 */
         memmove(log_t, log_t + 3, (size_t)(M - 1) * 3 * sizeof(double));
         M--;
+    }
+    if (two) {
+        atomic_store_explicit(&hp.go, -1, memory_order_release);
+        pthread_join(helper, NULL);
     }
     free(buf);
     free(log_t);

@@ -43,7 +43,7 @@ SOURCE = Path(__file__).with_name("streaming_kernel.c")
 CONFIG_FIELDS = ("n_sets", "n_guides", "tied", "n_hidden", "hidden0", "hidden1", "hidden2", "hidden3",
                  "residual", "d_model", "n_heads", "window", "d_ff", "n_layers")
 MAX_HIDDEN = 4
-_FLAG_SETS = (("-O3", "-march=native", "-std=gnu11"), ("-O3", "-std=gnu11"))  # native SIMD first, portable second
+_FLAG_SETS = (("-O3", "-march=native", "-std=gnu11", "-pthread"), ("-O3", "-std=gnu11", "-pthread"))  # native SIMD first, portable second
 
 _lock = threading.Lock()
 _loaded: ctypes.CDLL | None = None
@@ -142,7 +142,7 @@ def _load() -> ctypes.CDLL:
     except OSError as e:
         raise KernelUnavailable(f"loading {target} failed: {e}") from e
     vp, i32, f32 = ctypes.c_void_p, ctypes.c_int, ctypes.c_float
-    lib.pgchtc_frame.argtypes = [vp, vp, vp, f32, vp, vp, vp, i32, i32, vp, vp]
+    lib.pgchtc_frame.argtypes = [vp, vp, vp, f32, vp, vp, vp, i32, i32, vp, vp, i32]
     lib.pgchtc_frame.restype = i32
     lib.pgchtc_unit_floats.argtypes = [vp]
     lib.pgchtc_unit_floats.restype = ctypes.c_long
@@ -161,6 +161,14 @@ def kernel_status() -> tuple[bool, str]:
         return True, "ok"
     except KernelUnavailable as e:
         return False, str(e)
+
+
+def available_cpus() -> int:
+    """CPUs this process may run on (its affinity mask where the OS has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
 
 
 def _as_f32(t: torch.Tensor) -> np.ndarray:
@@ -203,7 +211,9 @@ class NativeStreamingCascade:
     """Frame-by-frame inference in the C kernel: the work and the state of :class:`~learners.cascade.StreamingCascade`.
 
     The parameters are copied at construction (float32, BatchNorm folded); later changes
-    to ``cascade`` are not seen.  The kernel runs on the calling thread and releases the GIL.
+    to ``cascade`` are not seen.  The kernel runs on the calling thread and releases the GIL;
+    with ``threads=2`` a helper thread computes ``g_phi`` beside ``f_theta`` during each frame,
+    with the same result to the bit.
 
     Parameters
     ----------
@@ -211,6 +221,10 @@ class NativeStreamingCascade:
         A float32 cascade on the CPU, in eval mode.
     n_sets : int
         ``N``, the number of tendon sets.
+    threads : int, optional
+        1 or 2.  Default: 2 where the unit has a temporal residual and the process may use
+        at least two CPUs, else 1.  A frame's helper thread waits by spinning, so on a single
+        CPU it would only slow the frame down.
 
     Raises
     ------
@@ -218,10 +232,15 @@ class NativeStreamingCascade:
         If the kernel cannot be built here, or cannot run this cascade.
     """
 
-    def __init__(self, cascade: Cascade, n_sets: int):
+    def __init__(self, cascade: Cascade, n_sets: int, threads: int | None = None):
         why = unsupported(cascade)
         if why:
             raise KernelUnavailable(why)
+        if threads is None:
+            threads = 2 if cascade.cfg.temporal_residual and available_cpus() >= 2 else 1
+        if threads not in (1, 2):
+            raise ValueError(f"threads must be 1 or 2, got {threads!r}")
+        self.threads = int(threads)
         self.lib = load_kernel()
         cfg = cascade.cfg
         hidden = list(cfg.hidden) + [0] * (MAX_HIDDEN - len(cfg.hidden))
@@ -267,7 +286,7 @@ class NativeStreamingCascade:
                              f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}")
         rc = self.lib.pgchtc_frame(self.config.ctypes.data, self._unit_ptrs, self.norm.ctypes.data, LOG_RATIO_BOUND,
                                    sin_q.ctypes.data, alpha.ctypes.data, log_actuator.ctypes.data, self.n_seen % self.window,
-                                   min(self.n_seen, self.window - 1), self._cache_ptrs, self._out.ctypes.data)
+                                   min(self.n_seen, self.window - 1), self._cache_ptrs, self._out.ctypes.data, self.threads)
         if rc != 0:
             raise MemoryError("the streaming kernel could not allocate its scratch memory")
         self.n_seen += 1

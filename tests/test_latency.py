@@ -16,3 +16,5 @@ def test_latency_benchmark_reports_the_design_shape_and_streaming_equals_batch()
     assert r["naive_frames"] == 4  # timed after the tiny preset's 5-frame history has filled
     assert r["naive_max_rel_diff_vs_batch"] <= 1e-5  # the baseline computes the same estimates
     assert r["streaming_ms_median"] > 0 and r["speedup"] == r["naive_ms_median"] / r["streaming_ms_median"]
+    if r["native_threads"] == 2:  # the one-thread run of the same engine, in the same benchmark
+        assert r["native_threads_same_bits"] is True and r["native_one_thread_ms_median"] > 0

@@ -130,6 +130,11 @@ def latency(*, recipe: str = "snake12-paper", preset: str = "paper", frames: int
     default = model.streamer()
     streamed, stream_ms = _stream(default, angles, act)
     streamed_torch, torch_ms = _stream(model.streamer("torch"), angles, act)
+    native_threads = default.engine.threads if default.engine_name == "native" else None
+    one_ms = same_bits = None
+    if native_threads and native_threads > 1:  # the helper thread's gain, measured in the same run
+        streamed_one, one_ms = _stream(model.streamer("native", threads=1), angles, act)
+        same_bits = bool(np.array_equal(streamed_one, streamed))
     rel = lambda a, b: float(np.max(np.abs(a / b - 1.0)))  # noqa: E731
 
     n = model.n_modules_
@@ -157,15 +162,21 @@ def latency(*, recipe: str = "snake12-paper", preset: str = "paper", frames: int
             "speedup_vs_torch": torch_ms / stream_ms, "torch_max_rel_diff_vs_batch": rel(streamed_torch, batch),
             "max_rel_diff_vs_float64": rel(streamed, exact), "batch_max_rel_diff_vs_float64": rel(batch, exact),
             "naive_max_rel_diff_vs_batch": rel(np.stack(naive_out)[:, 1:], batch[timed.start:timed.stop, 1:]),
-            "trained_fast": agreement,
+            "trained_fast": agreement, "native_threads": native_threads, "native_one_thread_ms_median": one_ms,
+            "native_threads_same_bits": same_bits,
             "frames": first.n_frames, "naive_frames": len(naive_times), "threads": torch.get_num_threads(), "rows": [],
             "seconds": time.perf_counter() - t0}
 
 
 def format_latency(r: dict) -> str:
+    threads = f" on {r['native_threads']} threads" if r.get("native_threads") else ""
     lines = [f"latency (N = {r['n_modules']}, preset {r['preset']}, {r['threads']} threads, median of {r['frames']} frames):",
-             f"  streaming, {r['engine']} engine: {r['streaming_ms_median']:.2f} ms/frame; max relative difference from batch "
+             f"  streaming, {r['engine']} engine{threads}: {r['streaming_ms_median']:.2f} ms/frame; max relative difference from batch "
              f"{r['max_rel_diff_vs_batch']:.2e} (from float64 {r['max_rel_diff_vs_float64']:.2e})"]
+    if r.get("native_one_thread_ms_median"):
+        lines.append(f"  streaming, native engine on 1 thread: {r['native_one_thread_ms_median']:.2f} ms/frame "
+                     f"({r['native_one_thread_ms_median'] / r['streaming_ms_median']:.2f}x slower; "
+                     f"{'same bits' if r['native_threads_same_bits'] else 'DIFFERENT bits'})")
     if r["engine"] != "torch":
         lines.append(f"  streaming, torch engine: {r['torch_streaming_ms_median']:.2f} ms/frame ({r['speedup_vs_torch']:.1f}x slower); "
                      f"max relative difference from batch {r['torch_max_rel_diff_vs_batch']:.2e}")

@@ -242,10 +242,10 @@ class PGCHTC(TransmissionModel):
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
         return chain
 
-    def streamer(self, engine: str = "auto") -> PGCHTCStream:
-        """A frame-by-frame estimator with causal caches (O(1) per frame); see :class:`PGCHTCStream` for ``engine``."""
+    def streamer(self, engine: str = "auto", threads: int | None = None) -> PGCHTCStream:
+        """A frame-by-frame estimator with causal caches (O(1) per frame); see :class:`PGCHTCStream` for ``engine`` and ``threads``."""
         self._check_fitted()
-        return PGCHTCStream(self, engine)
+        return PGCHTCStream(self, engine, threads)
 
     # ---- persistence ----------------------------------------------------------------------
     def _state(self):
@@ -289,6 +289,10 @@ class PGCHTCStream:
         inference: units in float32, inputs and chain in float64.  ``"auto"`` (default) takes the kernel where it builds and the model is a
         float32 CPU model, and the torch engine otherwise (with a warning if the kernel
         failed to build).
+    threads : {1, 2}, optional
+        Native engine only: 2 computes ``g_phi`` on a helper thread beside ``f_theta`` within
+        each frame, with the same result to the bit.  Default: 2 where the model has a temporal
+        residual and the process may use two CPUs, else 1.
 
     Attributes
     ----------
@@ -296,15 +300,17 @@ class PGCHTCStream:
         The engine in use, ``"native"`` or ``"torch"``.
     """
 
-    def __init__(self, model: PGCHTC, engine: str = "auto"):
+    def __init__(self, model: PGCHTC, engine: str = "auto", threads: int | None = None):
         if engine not in STREAM_ENGINES:
             raise ConfigError(f"engine must be one of {', '.join(STREAM_ENGINES)}; got {engine!r}")
+        if threads not in (None, 1, 2):
+            raise ConfigError(f"threads must be 1 or 2; got {threads!r}")
         self.model = model
         self.alpha0 = model.geometry_.alpha_0
         self.engine_name = "torch"
         if engine in ("auto", "native"):
             try:
-                self.engine = NativeStreamingCascade(model.cascade_, model.n_modules_)
+                self.engine = NativeStreamingCascade(model.cascade_, model.n_modules_, threads)
                 self.engine_name = "native"
             except KernelUnavailable as exc:
                 if engine == "native":

@@ -44,9 +44,10 @@ def _random_cascade(n, tied, residual, seed=0):
     return cascade
 
 
+@pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("tied", [True, False])
 @pytest.mark.parametrize("residual", [True, False])
-def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, residual):
+def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, residual, threads):
     """Against float64 batch inference of the same cascade, while the ring caches wrap four times."""
     n, L = 5, 23  # tiny preset: window 5
     cascade = _random_cascade(n, tied, residual)
@@ -58,13 +59,28 @@ def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, re
     c64.load_state_dict(cascade.state_dict())
     with torch.no_grad():
         exact, _ = c64(CascadeInputs(sin_q.double(), alpha.double(), log_act.double(), torch.arange(L)[None]), torch.arange(n))
-    engine = sn.NativeStreamingCascade(cascade, n)
+    engine = sn.NativeStreamingCascade(cascade, n, threads=threads)
     out = np.stack([engine.step(sin_q[0, t].numpy(), alpha[0, t].numpy(), log_act[0, t].numpy()) for t in range(L)])
     np.testing.assert_allclose(out, exact[0].numpy(), rtol=0, atol=1e-6)  # measured 2.2e-7 to 5.2e-7
     assert np.ptp(out[:, -1] - log_act[0, :, -1].numpy()) > 0.01  # the chain did something frame to frame
     engine.reset()
     again = np.stack([engine.step(sin_q[0, t].numpy(), alpha[0, t].numpy(), log_act[0, t].numpy()) for t in range(7)])
     np.testing.assert_array_equal(again, out[:7])
+
+
+@pytest.mark.parametrize("tied", [True, False])
+def test_helper_thread_gives_the_same_bits(kernel, tied):
+    """g_phi on a helper thread beside f_theta: the same arithmetic, so the same bits, frame after frame."""
+    n, L = 6, 17
+    cascade = _random_cascade(n, tied, True, seed=4)
+    g = torch.Generator().manual_seed(2)
+    frames = [(0.2 * torch.randn(n - 1, 4, generator=g).numpy(), (0.05 + 0.3 * torch.rand(n - 1, generator=g)).numpy(),
+               (5.0 + 0.3 * torch.randn(n, 3, generator=g)).numpy()) for _ in range(L)]
+    one, two = sn.NativeStreamingCascade(cascade, n, threads=1), sn.NativeStreamingCascade(cascade, n, threads=2)
+    for f in frames:
+        np.testing.assert_array_equal(two.step(*f), one.step(*f))
+    with pytest.raises(ValueError, match="threads"):
+        sn.NativeStreamingCascade(cascade, n, threads=3)
 
 
 def test_native_step_rejects_wrong_shapes(kernel):
