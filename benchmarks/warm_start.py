@@ -14,7 +14,8 @@ no label. This script scores each method on Table II's held-out trajectories twi
   same frames.
 
 Beside them, ``truth-warm`` replays the simulator's own transmission over the session: the
-error a model of the exact physics and the exact parameters would have with the whole past.
+error a model of the exact physics and the exact parameters would have with the whole past
+and noise-free inputs (and no terminal ``sensor_bias``, should a recipe switch it on).
 Models are fitted once per split on its calibration pool (``PaperSplit.calibration``), as
 Table II fits them.
 """

@@ -171,6 +171,28 @@ def available_cpus() -> int:
         return os.cpu_count() or 1
 
 
+#: Multiply-adds per row of f_theta and of g_phi from which a helper thread pays for its start
+#: and its 11 meetings per frame (N = 12).  Measured on 2 cores: the paper preset (0.40 M and
+#: 0.41 M) gains 1.5-1.9x; the fast preset loses (0.31 ms on one thread, 0.52 ms on two).
+HELPER_THREAD_MIN_MACS = 100_000
+
+
+def unit_macs(cfg) -> tuple[int, int]:
+    """Multiply-adds per row of ``f_theta`` and ``g_phi`` (0 without a residual), the Linear layers only."""
+    widths = (8, *cfg.hidden, 3)
+    backbone = sum(a * b for a, b in zip(widths[:-1], widths[1:]))
+    if not cfg.temporal_residual:
+        return backbone, 0
+    d, f = cfg.d_model, cfg.d_ff
+    return backbone, 8 * d + cfg.n_layers * (3 * d * d + d * d + 2 * d * f) + 3 * d
+
+
+def helper_thread_pays(cfg) -> bool:
+    """Whether computing g_phi on a helper thread beside f_theta is worth it for this unit size."""
+    f, g = unit_macs(cfg)
+    return min(f, g) >= HELPER_THREAD_MIN_MACS
+
+
 def _as_f32(t: torch.Tensor) -> np.ndarray:
     return t.detach().to("cpu", torch.float32).numpy().ravel()
 
@@ -222,9 +244,10 @@ class NativeStreamingCascade:
     n_sets : int
         ``N``, the number of tendon sets.
     threads : int, optional
-        1 or 2.  Default: 2 where the unit has a temporal residual and the process may use
-        at least two CPUs, else 1.  A frame's helper thread waits by spinning, so on a single
-        CPU it would only slow the frame down.
+        1 or 2.  Default: 2 where both parts of the unit are large enough to pay for the helper
+        (:func:`helper_thread_pays`, true for the paper preset) and the process may use at least
+        two CPUs, else 1.  The helper waits by spinning, so it gains only where a second core is
+        free; where it cannot be started, frames run on one thread (``threads`` then reads 1).
 
     Raises
     ------
@@ -237,7 +260,7 @@ class NativeStreamingCascade:
         if why:
             raise KernelUnavailable(why)
         if threads is None:
-            threads = 2 if cascade.cfg.temporal_residual and available_cpus() >= 2 else 1
+            threads = 2 if helper_thread_pays(cascade.cfg) and available_cpus() >= 2 else 1
         if threads not in (1, 2):
             raise ValueError(f"threads must be 1 or 2, got {threads!r}")
         self.threads = int(threads)
@@ -287,7 +310,9 @@ class NativeStreamingCascade:
         rc = self.lib.pgchtc_frame(self.config.ctypes.data, self._unit_ptrs, self.norm.ctypes.data, LOG_RATIO_BOUND,
                                    sin_q.ctypes.data, alpha.ctypes.data, log_actuator.ctypes.data, self.n_seen % self.window,
                                    min(self.n_seen, self.window - 1), self._cache_ptrs, self._out.ctypes.data, self.threads)
-        if rc != 0:
+        if rc == 2:  # the helper thread could not be started: this frame, and the next, on one
+            self.threads = 1
+        elif rc != 0:
             raise MemoryError("the streaming kernel could not allocate its scratch memory")
         self.n_seen += 1
         return self._out.copy()
