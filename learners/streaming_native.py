@@ -172,8 +172,9 @@ def available_cpus() -> int:
 
 
 #: Multiply-adds per row of f_theta and of g_phi from which a helper thread pays for its start
-#: and its 11 meetings per frame (N = 12).  Measured on 2 cores: the paper preset (0.40 M and
-#: 0.41 M) gains 1.5-1.9x; the fast preset loses (0.31 ms on one thread, 0.52 ms on two).
+#: and its 11 meetings per frame (N = 12).  Measured on 2 cores (AVX2): the paper preset (0.40 M
+#: and 0.39 M) gains 1.3-1.9x; the fast preset (7 k and 17 k) loses, 0.31 ms on one thread
+#: against 0.52 ms on two.
 HELPER_THREAD_MIN_MACS = 100_000
 
 
