@@ -40,11 +40,12 @@ from tendon_id.sim import simulate
 UNLOGGED_NOISE_SEED = 12345
 
 
-def session_recording(name: str, protocol: str) -> tuple[Recording, np.ndarray, np.ndarray]:
+def session_recording(name: str, protocol: str) -> tuple[Recording, Recording, np.ndarray, np.ndarray]:
     """The whole session of a recipe's ``protocol`` as one trajectory.
 
-    Returns the session recording, the session row of each logged row, and the noise-free
-    terminal tensions [N] of the logged rows from the simulator's own run over the session.
+    Returns the logged recording, the session recording, the session row of each logged row,
+    and the noise-free terminal tensions [N] of the logged rows from the simulator's own run
+    over the session.
     Logged rows carry the recorded (cached) measurements; unlogged rows are read through the
     recipe's sensors from the simulator's true inputs.  Their terminal column is never scored.
     """
@@ -63,7 +64,7 @@ def session_recording(name: str, protocol: str) -> tuple[Recording, np.ndarray, 
     whole = Recording.from_arrays(trajectory="session", t=np.arange(len(ses.logged)) * recipe.dt,
                                   angles=recipe.sensors.read_angles(ses.theta), actuator=actuator,
                                   terminal=terminal, meta=rec.meta)
-    return whole, np.flatnonzero(ses.logged), sim.chain[:, -1, -1, :]
+    return rec, whole, np.flatnonzero(ses.logged), sim.chain[:, -1, -1, :]
 
 
 def main() -> None:
@@ -85,8 +86,7 @@ def main() -> None:
         models = {m: build(m).fit(split.calibration) for m in args.methods}
         scores = {f"{m} {mode}": [] for m in args.methods for mode in ("cold", "warm")} | {"truth-warm": []}
         for p in TEST_PROTOCOLS:
-            whole, rows_of, truth = sessions[p]
-            rec = load(args.recipe, protocol=p)
+            rec, whole, rows_of, truth = sessions[p]
             held = np.isin(rec.trajectory_ids, split.test[p].trajectories)
             y = rec.terminal[held]
             for m, model in models.items():

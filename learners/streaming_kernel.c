@@ -16,8 +16,8 @@
  *
  * Two cores: f_theta and g_phi of a guide step read the same unit input and nothing of
  * each other, and cost about the same for the paper preset (0.40 M and 0.39 M multiply-adds
- * per row in their Linear layers), so with threads = 2 a helper thread runs g_phi while the calling thread runs
- * f_theta, meeting once per guide step.  Each part does the same arithmetic in the same
+ * per row in their Linear layers), so with threads = 2 a helper thread runs g_phi while the
+ * calling thread runs f_theta, meeting once per guide step.  Each part does the same arithmetic in the same
  * order either way, so one and two threads give the same bits.
  *
  * Layouts (float32 unless said, C order):
@@ -201,11 +201,10 @@ static int widest(const int *cfg) {
 }
 
 /* f_theta of a guide step: ln r_MLP (M, 3) into ratio (paper Eq. (8), its first factor).
- * x: the normalised unit inputs (M, 8) of paper Eq. (7).  buf: 2 * M * widest(cfg) floats.
- * Returns where the unit's g_phi parameters start. */
+ * x: the normalised unit inputs (M, 8) of paper Eq. (7).  buf: 2 * M * widest(cfg) floats. */
 /* noinline: the calling thread and the helper run the very same machine code, so one and
  * two threads give the same bits whatever the compiler would inline where. */
-__attribute__((noinline)) static const float *backbone_step(const int *cfg, const float *P, const float *x, int M, float *buf, float *ratio) {
+__attribute__((noinline)) static void backbone_step(const int *cfg, const float *P, const float *x, int M, float *buf, float *ratio) {
     int n_hidden = cfg[C_N_HIDDEN], wide = widest(cfg);
     float *a = buf, *b = buf + (size_t)M * wide;
     /* (Linear [BN folded] -> GELU) per hidden layer, then Linear -> softplus + 0.01 */
@@ -220,16 +219,15 @@ __attribute__((noinline)) static const float *backbone_step(const int *cfg, cons
         in = out, K = N;
     }
     linear(in, M, K, P, P + (size_t)K * 3, 3, ratio);
-    P += (size_t)K * 3 + 3;
     for (int i = 0; i < M * 3; i++) ratio[i] = logf(softplus(ratio[i]) + 0.01f);
-    return P;
 }
 
 /* g_phi of a guide step: the temporal head's pre-tanh output (M, 3) into tr, reading and
- * updating the guide's ring caches at `slot`.  P: the unit's g_phi parameters.
+ * updating the guide's ring caches at `slot`.  P: the unit's g_phi parameters, which follow
+ * f_theta's (backbone_floats) in a packed unit.
  * buf: M * (2 * widest(cfg) + d_model) floats. */
-__attribute__((noinline)) static void residual_step(const int *cfg, const float *P, const float *x, int M, float *cache, int slot, int seen,
-                          float *buf, float *tr) {
+__attribute__((noinline)) static void residual_step(const int *cfg, const float *P, const float *x, int M, float *cache,
+                                                    int slot, int seen, float *buf, float *tr) {
     int wide = widest(cfg);
     int D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
     float *a = buf, *b = buf + (size_t)M * wide, *h = b + (size_t)M * wide;
@@ -388,8 +386,8 @@ int pgchtc_frame(const int *cfg, const float *const *units, const double *norm, 
             backbone_step(cfg, unit, x, M, buf, ratio);
             wait_for(&hp.done, g + 1);
         } else {
-            const float *P = backbone_step(cfg, unit, x, M, buf, ratio);
-            if (residual) residual_step(cfg, P, x, M, caches[g], slot, seen, buf + part, tr);
+            backbone_step(cfg, unit, x, M, buf, ratio);
+            if (residual) residual_step(cfg, unit + backbone_floats(cfg), x, M, caches[g], slot, seen, buf + part, tr);
         }
         add_log_ratio(ratio, residual ? tr : NULL, M, bound, log_t);
         memcpy(out + 3 * (g + 1), log_t, 3 * sizeof(double)); /* set g + 2 is final after guide g + 1 */
