@@ -82,10 +82,14 @@ def main() -> None:
         "cpu_count": os.cpu_count(),
         "python": platform.python_version(),
     }
-    print(f"simulate {args.frames} frames, N={n}, every effect on: median {ours:.3f} s over {args.repeats} runs "
-          f"(min {min(times):.3f}, max {max(times):.3f}); {os.cpu_count()} cores")
-    print(f"stick-slip transmission, 1000 frames: vectorised {t_vec * 1e3:.1f} ms vs naive loop {t_naive * 1e3:.1f} ms "
-          f"= {t_naive / t_vec:.0f}x (agree: {agree})")
+    print(
+        f"simulate {args.frames} frames, N={n}, every effect on: median {ours:.3f} s over {args.repeats} runs "
+        f"(min {min(times):.3f}, max {max(times):.3f}); {os.cpu_count()} cores"
+    )
+    print(
+        f"stick-slip transmission, 1000 frames: vectorised {t_vec * 1e3:.1f} ms vs naive loop {t_naive * 1e3:.1f} ms "
+        f"= {t_naive / t_vec:.0f}x (agree: {agree})"
+    )
     if args.json:
         write_json_atomic(args.json, out)
 

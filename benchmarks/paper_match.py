@@ -33,7 +33,10 @@ def main() -> None:
     t0 = time.perf_counter()
     rows = []
     print(f"recipe {recipe.name}, seeds {args.seeds}, proximal measurement at the terminal joint")
-    print(f"{'protocol':14s} {'RMSE mean':>9s} {'min':>6s} {'max':>6s} {'paper':>7s} {'ratio':>6s} {'R2 mean':>8s} {'paper':>7s}")
+    print(
+        f"{'protocol':14s} {'RMSE mean':>9s} {'min':>6s} {'max':>6s} {'paper':>7s} "
+        f"{'ratio':>6s} {'R2 mean':>8s} {'paper':>7s}"
+    )
     for protocol, (p_rmse, p_r2) in PAPER.items():
         ms = []
         for seed in args.seeds:
@@ -42,11 +45,28 @@ def main() -> None:
         rmse = np.array([m["rmse"] for m in ms])
         r2 = np.array([m["r2"] for m in ms])
         ratio = rmse.mean() / p_rmse
-        rows.append({"protocol": protocol, "rmse_mean": rmse.mean(), "rmse_min": rmse.min(), "rmse_max": rmse.max(), "paper_rmse": p_rmse,
-                     "ratio": ratio, "r2_mean": r2.mean(), "paper_r2": p_r2, "within_1_5": bool(1 / 1.5 <= rmse.min() / p_rmse and rmse.max() / p_rmse <= 1.5)})
-        print(f"{protocol:14s} {rmse.mean():9.1f} {rmse.min():6.1f} {rmse.max():6.1f} {p_rmse:7.1f} {ratio:6.2f} {r2.mean():8.2f} {p_r2:7.2f}")
+        rows.append(
+            {
+                "protocol": protocol,
+                "rmse_mean": rmse.mean(),
+                "rmse_min": rmse.min(),
+                "rmse_max": rmse.max(),
+                "paper_rmse": p_rmse,
+                "ratio": ratio,
+                "r2_mean": r2.mean(),
+                "paper_r2": p_r2,
+                "within_1_5": bool(1 / 1.5 <= rmse.min() / p_rmse and rmse.max() / p_rmse <= 1.5),
+            }
+        )
+        print(
+            f"{protocol:14s} {rmse.mean():9.1f} {rmse.min():6.1f} {rmse.max():6.1f} {p_rmse:7.1f} "
+            f"{ratio:6.2f} {r2.mean():8.2f} {p_r2:7.2f}"
+        )
     secs = time.perf_counter() - t0
-    print(f"every seed within a factor 1.5: {all(r['within_1_5'] for r in rows)}   ({secs:.1f} s, {platform.machine()}, {platform.python_version()})")
+    print(
+        f"every seed within a factor 1.5: {all(r['within_1_5'] for r in rows)}   "
+        f"({secs:.1f} s, {platform.machine()}, {platform.python_version()})"
+    )
     if args.json:
         write_json_atomic(args.json, {"recipe": recipe.name, "seeds": args.seeds, "rows": rows, "seconds": secs})
 

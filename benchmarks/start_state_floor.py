@@ -117,12 +117,24 @@ def main() -> None:
     recipe = load_recipe(args.recipe)
     # Sessions 1.. are new simulations; Table II's data are session `seed` of the recipe (0).
     base = recipe.seed + 1 + 1000 * args.seed
-    train = [seq for s in range(base, base + args.train_seeds) for p in TEST_PROTOCOLS
-             for seq in sequences(simulate(recipe, p, seed=s).recording)]
-    val_recs = {p: [simulate(recipe, p, seed=s).recording for s in range(base + args.train_seeds, base + args.train_seeds + VAL_SEEDS)]
-                for p in TEST_PROTOCOLS}
+    train = [
+        seq
+        for s in range(base, base + args.train_seeds)
+        for p in TEST_PROTOCOLS
+        for seq in sequences(simulate(recipe, p, seed=s).recording)
+    ]
+    val_recs = {
+        p: [
+            simulate(recipe, p, seed=s).recording
+            for s in range(base + args.train_seeds, base + args.train_seeds + VAL_SEEDS)
+        ]
+        for p in TEST_PROTOCOLS
+    }
     splits = [paper_split(args.recipe, s) for s in range(args.seed, args.seed + args.repeats)]
-    print(f"{len(train)} training trajectories from {args.train_seeds} sessions ({time.perf_counter() - t0:.0f} s)", flush=True)
+    print(
+        f"{len(train)} training trajectories from {args.train_seeds} sessions ({time.perf_counter() - t0:.0f} s)",
+        flush=True,
+    )
 
     floor = Floor(train, args.seed)
     opt = torch.optim.AdamW(floor.net.parameters(), lr=2e-3, weight_decay=1e-4)
@@ -147,7 +159,9 @@ def main() -> None:
         v = val_rmse()
         if v < best[0]:
             best = (v, epoch, [overall(floor.predict, sp.test) for sp in splits])
-        print(f"epoch {epoch + 1}/{args.epochs}: validation RMSE {v:.1f} N ({time.perf_counter() - t0:.0f} s)", flush=True)
+        print(
+            f"epoch {epoch + 1}/{args.epochs}: validation RMSE {v:.1f} N ({time.perf_counter() - t0:.0f} s)", flush=True
+        )
 
     rows = []
     for k, sp in enumerate(splits):
@@ -157,17 +171,35 @@ def main() -> None:
     secs = time.perf_counter() - t0
     f_all = np.mean([r["floor"]["overall"] for r in rows])
     n_all = np.mean([r["capstan_nonsmooth"]["overall"] for r in rows])
-    print(f"\n{args.recipe}: terminal RMSE [N] on Table II's held-out trajectories (best validation epoch {best[1] + 1})")
+    print(
+        f"\n{args.recipe}: terminal RMSE [N] on Table II's held-out trajectories (best validation epoch {best[1] + 1})"
+    )
     print(f"{'split':>5s} {'protocol':14s} {'GRU floor':>9s} {'nonsmooth':>9s} {'ratio':>6s}")
     for r in rows:
         for p in (*TEST_PROTOCOLS, "overall"):
-            print(f"{r['split']:5d} {p:14s} {r['floor'][p]:9.1f} {r['capstan_nonsmooth'][p]:9.1f} {r['floor'][p] / r['capstan_nonsmooth'][p]:6.2f}")
-    print(f"mean overall: floor {f_all:.1f} N, capstan-nonsmooth {n_all:.1f} N, ratio {f_all / n_all:.2f}"
-          f"   ({secs:.0f} s, {platform.machine()}, {platform.python_version()})")
+            print(
+                f"{r['split']:5d} {p:14s} {r['floor'][p]:9.1f} {r['capstan_nonsmooth'][p]:9.1f} "
+                f"{r['floor'][p] / r['capstan_nonsmooth'][p]:6.2f}"
+            )
+    print(
+        f"mean overall: floor {f_all:.1f} N, capstan-nonsmooth {n_all:.1f} N, ratio {f_all / n_all:.2f}"
+        f"   ({secs:.0f} s, {platform.machine()}, {platform.python_version()})"
+    )
     if args.json:
-        write_json_atomic(args.json, {"benchmark": "start_state_floor", "recipe": args.recipe, "train_seeds": args.train_seeds,
-                                      "epochs": args.epochs, "best_epoch": best[1] + 1, "validation_rmse": best[0], "rows": rows,
-                                      "mean_overall": {"floor": f_all, "capstan_nonsmooth": n_all, "ratio": f_all / n_all}, "seconds": secs})
+        write_json_atomic(
+            args.json,
+            {
+                "benchmark": "start_state_floor",
+                "recipe": args.recipe,
+                "train_seeds": args.train_seeds,
+                "epochs": args.epochs,
+                "best_epoch": best[1] + 1,
+                "validation_rmse": best[0],
+                "rows": rows,
+                "mean_overall": {"floor": f_all, "capstan_nonsmooth": n_all, "ratio": f_all / n_all},
+                "seconds": secs,
+            },
+        )
 
 
 if __name__ == "__main__":

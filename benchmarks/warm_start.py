@@ -53,7 +53,9 @@ def session_recording(name: str, protocol: str) -> tuple[Recording, Recording, n
     sim = simulate(recipe, protocol)
     rec = load(name, protocol=protocol)
     if not np.array_equal(sim.recording.terminal, rec.terminal):
-        raise RuntimeError(f"the cached {protocol} data of {recipe.name} differ from a fresh simulation; clear the cache")
+        raise RuntimeError(
+            f"the cached {protocol} data of {recipe.name} differ from a fresh simulation; clear the cache"
+        )
     ses = sim.session
     rng = np.random.default_rng(UNLOGGED_NOISE_SEED)
     actuator = recipe.sensors.read_tensions(rng, ses.actuator)
@@ -61,9 +63,14 @@ def session_recording(name: str, protocol: str) -> tuple[Recording, Recording, n
     terminal = np.empty((len(ses.logged), 3))
     terminal[ses.logged] = rec.terminal
     terminal[~ses.logged] = actuator[~ses.logged, -1]  # a positive placeholder: never scored
-    whole = Recording.from_arrays(trajectory="session", t=np.arange(len(ses.logged)) * recipe.dt,
-                                  angles=recipe.sensors.read_angles(ses.theta), actuator=actuator,
-                                  terminal=terminal, meta=rec.meta)
+    whole = Recording.from_arrays(
+        trajectory="session",
+        t=np.arange(len(ses.logged)) * recipe.dt,
+        angles=recipe.sensors.read_angles(ses.theta),
+        actuator=actuator,
+        terminal=terminal,
+        meta=rec.meta,
+    )
     return rec, whole, np.flatnonzero(ses.logged), sim.chain[:, -1, -1, :]
 
 
@@ -104,12 +111,27 @@ def main() -> None:
     print(f"\n{args.recipe}: terminal RMSE [N] on Table II's held-out trajectories, preset {args.preset}")
     print(f"{'split':>5s} {'method':26s} " + " ".join(f"{p:>13s}" for p in (*TEST_PROTOCOLS, "overall")))
     for r in rows:
-        print(f"{r['split']:5d} {r['method']:26s} " + " ".join(f"{r['rmse'][p]:13.2f}" for p in (*TEST_PROTOCOLS, "overall")))
-    print("mean overall: " + ", ".join(f"{n} {v:.2f} N" for n, v in mean.items())
-          + f"   ({secs:.0f} s, {platform.machine()}, {platform.python_version()})")
+        print(
+            f"{r['split']:5d} {r['method']:26s} "
+            + " ".join(f"{r['rmse'][p]:13.2f}" for p in (*TEST_PROTOCOLS, "overall"))
+        )
+    print(
+        "mean overall: "
+        + ", ".join(f"{n} {v:.2f} N" for n, v in mean.items())
+        + f"   ({secs:.0f} s, {platform.machine()}, {platform.python_version()})"
+    )
     if args.json:
-        write_json_atomic(args.json, {"benchmark": "warm_start", "recipe": args.recipe, "preset": args.preset,
-                                      "rows": rows, "mean_overall": mean, "seconds": secs})
+        write_json_atomic(
+            args.json,
+            {
+                "benchmark": "warm_start",
+                "recipe": args.recipe,
+                "preset": args.preset,
+                "rows": rows,
+                "mean_overall": mean,
+                "seconds": secs,
+            },
+        )
 
 
 if __name__ == "__main__":

@@ -153,8 +153,15 @@ class DataclassDefaults(SphinxDirective):
             else:
                 default = None
             rows.append((f"``{f.name}``", _format_default(default), descriptions.get(f.name, "")))
-        lines = [f".. list-table:: {self.options.get('title', '')}".rstrip(), "   :header-rows: 1",
-                 "   :widths: 22 22 56", "", "   * - setting", "     - default", "     - meaning"]
+        lines = [
+            f".. list-table:: {self.options.get('title', '')}".rstrip(),
+            "   :header-rows: 1",
+            "   :widths: 22 22 56",
+            "",
+            "   * - setting",
+            "     - default",
+            "     - meaning",
+        ]
         if not rows:
             lines += ["   * - (none)", "     -", "     - This effect has no settings of its own."]
         for name, default, desc in rows:

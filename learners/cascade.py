@@ -141,8 +141,13 @@ class Cascade(nn.Module):
             if not bool(active.any()):
                 break
             x_t = log_t[:, :, active]
-            x = torch.cat([geo[:, :, g, None, :].expand(*x_t.shape[:-1], 5),
-                           normalised_tensions(x_t, self.feature_mean, self.feature_std)], dim=-1)  # (B, L, Sa, 8)
+            x = torch.cat(
+                [
+                    geo[:, :, g, None, :].expand(*x_t.shape[:-1], 5),
+                    normalised_tensions(x_t, self.feature_mean, self.feature_std),
+                ],
+                dim=-1,
+            )  # (B, L, Sa, 8)
             unit = self.unit(g)
             lr = torch.log(unit.backbone(x))
             if residual and unit.residual is not None:
@@ -157,8 +162,20 @@ class Cascade(nn.Module):
         return log_t, log_ratio
 
 
-def _folded_backbone(backbone) -> list[tuple[Tensor, Tensor]]:
-    """``f_theta``'s layers with each eval-mode BatchNorm folded into the Linear before it."""
+def folded_backbone(backbone) -> list[tuple[Tensor, Tensor]]:
+    """``f_theta``'s layers with each eval-mode BatchNorm folded into the Linear before it.
+
+    Parameters
+    ----------
+    backbone : StaticBackbone
+        Its ``body`` is Linear, BatchNorm1d, activation per hidden layer, then ``head``.
+
+    Returns
+    -------
+    list of (Tensor, Tensor)
+        ``(weight (in, out), bias (out,))`` per Linear layer, hidden layers first: the weight
+        transposed for ``x @ weight + bias``, as the streaming engines apply it.
+    """
     layers = list(backbone.body)
     out = []
     for i in range(0, len(layers), 3):
@@ -191,7 +208,7 @@ class StreamingCascade:
         window = cascade.cfg.window
         p = next(cascade.parameters())
         with torch.no_grad():
-            self.backbones = [_folded_backbone(u.backbone) for u in cascade.units]
+            self.backbones = [folded_backbone(u.backbone) for u in cascade.units]
         # Ring bookkeeping for every (slot, frames seen) state, built once: a frame only picks them.
         slots = torch.arange(window, device=p.device)
         self._slot = [torch.tensor([s], device=p.device) for s in range(window)]
@@ -220,8 +237,16 @@ class StreamingCascade:
         w, b = layers[-1]
         return torch.nn.functional.softplus(torch.addmm(b, h, w)) + 0.01
 
-    def _frame(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor, slot: Tensor, lag_of_slot: Tensor, invalid: Tensor,
-               caches: tuple[Tensor, ...]) -> Tensor:
+    def _frame(
+        self,
+        sin_q: Tensor,
+        alpha: Tensor,
+        log_actuator: Tensor,
+        slot: Tensor,
+        lag_of_slot: Tensor,
+        invalid: Tensor,
+        caches: tuple[Tensor, ...],
+    ) -> Tensor:
         """One frame from explicit state (the caches are updated in place): what the eager and traced steps run."""
         c = self.cascade
         mean, std = c.feature_mean, c.feature_std
@@ -262,8 +287,15 @@ class StreamingCascade:
         # Traced on scratch caches: tracing runs the frame once, and that must not touch the state.
         scratch = tuple(torch.zeros_like(t) for t in self.caches)
         f64 = dict(dtype=torch.float64, device=p.device)
-        example = (torch.zeros(n - 1, 4, **f64), torch.zeros(n - 1, **f64), torch.zeros(n, 3, **f64), self._slot[0], self._lag[0],
-                   self._invalid[0][0], scratch)
+        example = (
+            torch.zeros(n - 1, 4, **f64),
+            torch.zeros(n - 1, **f64),
+            torch.zeros(n, 3, **f64),
+            self._slot[0],
+            self._lag[0],
+            self._invalid[0][0],
+            scratch,
+        )
         try:
             with torch.no_grad(), warnings.catch_warnings():
                 # TorchScript is deprecated in favour of torch.compile, which needs a C++ toolchain at
@@ -290,7 +322,14 @@ class StreamingCascade:
         window = self.cascade.cfg.window
         slot = self.n_seen % window
         run = self._graph if self._graph is not None else self._frame
-        log_t = run(sin_q, alpha, log_actuator, self._slot[slot], self._lag[slot], self._invalid[slot][min(self.n_seen, window - 1)],
-                    self.caches)
+        log_t = run(
+            sin_q,
+            alpha,
+            log_actuator,
+            self._slot[slot],
+            self._lag[slot],
+            self._invalid[slot][min(self.n_seen, window - 1)],
+            self.caches,
+        )
         self.n_seen += 1
         return log_t

@@ -17,8 +17,15 @@ class LossWeights:
     eta_w: float = 2.0
 
 
-def pgchtc_loss(log_terminal_hat: Tensor, log_terminal: Tensor, log_ratio: Tensor, log_ratio_phys: Tensor, alpha: Tensor,
-                weights: LossWeights, mask: Tensor | None = None) -> tuple[Tensor, dict[str, float]]:
+def pgchtc_loss(
+    log_terminal_hat: Tensor,
+    log_terminal: Tensor,
+    log_ratio: Tensor,
+    log_ratio_phys: Tensor,
+    alpha: Tensor,
+    weights: LossWeights,
+    mask: Tensor | None = None,
+) -> tuple[Tensor, dict[str, float]]:
     """Mean over frames of ``L_data + lambda L_phys + lambda_s L_smooth``.
 
     Parameters

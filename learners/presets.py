@@ -64,12 +64,16 @@ PRESETS = {
     # Small enough that the whole Table II benchmark trains on 2 CPU cores in minutes.
     "fast": Preset(
         unit=UnitConfig(hidden=(64, 64, 32), d_model=32, n_heads=4, n_layers=2, window=20, d_ff=64),
-        train=TrainConfig(lr1=3e-3, batch1=256, epochs1=30, patience1=5, lr2=2e-3, chunk2=256, batch2=16, epochs2=6, patience2=2),
+        train=TrainConfig(
+            lr1=3e-3, batch1=256, epochs1=30, patience1=5, lr2=2e-3, chunk2=256, batch2=16, epochs2=6, patience2=2
+        ),
     ),
     # For unit tests: seconds, not minutes.
     "tiny": Preset(
         unit=UnitConfig(hidden=(16, 16, 8), d_model=8, n_heads=2, n_layers=1, window=5, d_ff=16),
-        train=TrainConfig(lr1=3e-3, batch1=256, epochs1=3, patience1=2, lr2=2e-3, chunk2=64, batch2=8, epochs2=2, patience2=1),
+        train=TrainConfig(
+            lr1=3e-3, batch1=256, epochs1=3, patience1=2, lr2=2e-3, chunk2=64, batch2=8, epochs2=2, patience2=1
+        ),
     ),
 }
 

@@ -36,14 +36,31 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from learners.cascade import LOG_RATIO_BOUND, Cascade, _folded_backbone
+from learners.cascade import LOG_RATIO_BOUND, Cascade, folded_backbone
 
 SOURCE = Path(__file__).with_name("streaming_kernel.c")
 #: The kernel's configuration vector, in the order of its ``C_*`` enum.
-CONFIG_FIELDS = ("n_sets", "n_guides", "tied", "n_hidden", "hidden0", "hidden1", "hidden2", "hidden3",
-                 "residual", "d_model", "n_heads", "window", "d_ff", "n_layers")
+CONFIG_FIELDS = (
+    "n_sets",
+    "n_guides",
+    "tied",
+    "n_hidden",
+    "hidden0",
+    "hidden1",
+    "hidden2",
+    "hidden3",
+    "residual",
+    "d_model",
+    "n_heads",
+    "window",
+    "d_ff",
+    "n_layers",
+)
 MAX_HIDDEN = 4
-_FLAG_SETS = (("-O3", "-march=native", "-std=gnu11", "-pthread"), ("-O3", "-std=gnu11", "-pthread"))  # native SIMD first, portable second
+_FLAG_SETS = (
+    ("-O3", "-march=native", "-std=gnu11", "-pthread"),
+    ("-O3", "-std=gnu11", "-pthread"),
+)  # native SIMD first, portable second
 
 _lock = threading.Lock()
 _loaded: ctypes.CDLL | None = None
@@ -133,7 +150,9 @@ def _load() -> ctypes.CDLL:
     cc = _compiler()
     if cc is None:
         raise KernelUnavailable("no C compiler found (set CC, or install gcc or clang)")
-    key = hashlib.sha256(SOURCE.read_bytes() + cc.encode() + repr(_FLAG_SETS).encode() + _cpu_signature().encode()).hexdigest()[:16]
+    key = hashlib.sha256(
+        SOURCE.read_bytes() + cc.encode() + repr(_FLAG_SETS).encode() + _cpu_signature().encode()
+    ).hexdigest()[:16]
     target = cache_dir() / f"streaming_kernel-{key}.so"
     if not target.exists():
         _build(cc, target)
@@ -204,15 +223,28 @@ def _pack_unit(unit) -> np.ndarray:
     Linear weights are stored transposed, (in, out); ``f_theta``'s BatchNorm is folded in.
     """
     parts = []
-    for w, b in _folded_backbone(unit.backbone):
+    for w, b in folded_backbone(unit.backbone):
         parts += [w, b]
     r = unit.residual
     if r is not None:
         parts += [r.embed.weight.T, r.embed.bias]
         for layer in r.layers:
             a, ff1, ff2 = layer.attn, layer.ff[0], layer.ff[2]
-            parts += [layer.norm1.weight, layer.norm1.bias, a.qkv.weight.T, a.qkv.bias, a.out.weight.T, a.out.bias, a.lag_bias,
-                      layer.norm2.weight, layer.norm2.bias, ff1.weight.T, ff1.bias, ff2.weight.T, ff2.bias]
+            parts += [
+                layer.norm1.weight,
+                layer.norm1.bias,
+                a.qkv.weight.T,
+                a.qkv.bias,
+                a.out.weight.T,
+                a.out.bias,
+                a.lag_bias,
+                layer.norm2.weight,
+                layer.norm2.bias,
+                ff1.weight.T,
+                ff1.bias,
+                ff2.weight.T,
+                ff2.bias,
+            ]
         parts += [r.norm.weight, r.norm.bias, r.head.weight.T, r.head.bias]
     with torch.no_grad():
         return np.ascontiguousarray(np.concatenate([_as_f32(p) for p in parts]), dtype=np.float32)
@@ -268,16 +300,34 @@ class NativeStreamingCascade:
         self.lib = load_kernel()
         cfg = cascade.cfg
         hidden = list(cfg.hidden) + [0] * (MAX_HIDDEN - len(cfg.hidden))
-        self.config = np.array([n_sets, cascade.n_guides, int(cascade.tied), len(cfg.hidden), *hidden, int(cfg.temporal_residual),
-                                cfg.d_model, cfg.n_heads, cfg.window, cfg.d_ff, cfg.n_layers], dtype=np.int32)
+        self.config = np.array(
+            [
+                n_sets,
+                cascade.n_guides,
+                int(cascade.tied),
+                len(cfg.hidden),
+                *hidden,
+                int(cfg.temporal_residual),
+                cfg.d_model,
+                cfg.n_heads,
+                cfg.window,
+                cfg.d_ff,
+                cfg.n_layers,
+            ],
+            dtype=np.int32,
+        )
         self.n_sets, self.window = n_sets, cfg.window
         self.units = [_pack_unit(u) for u in cascade.units]
         expected = self.lib.pgchtc_unit_floats(self.config.ctypes.data)
         if any(u.size != expected for u in self.units):  # the packer and the kernel disagree on the layout
-            raise KernelUnavailable(f"parameter layout mismatch: packed {self.units[0].size} floats, the kernel reads {expected}")
+            raise KernelUnavailable(
+                f"parameter layout mismatch: packed {self.units[0].size} floats, the kernel reads {expected}"
+            )
         self.norm = np.concatenate([_as_f32(cascade.feature_mean), _as_f32(cascade.feature_std)]).astype(np.float64)
-        self.caches = [np.zeros(max(1, self.lib.pgchtc_cache_floats(self.config.ctypes.data, g)), np.float32)
-                       for g in range(cascade.n_guides)]
+        self.caches = [
+            np.zeros(max(1, self.lib.pgchtc_cache_floats(self.config.ctypes.data, g)), np.float32)
+            for g in range(cascade.n_guides)
+        ]
         ptrs = lambda arrays: (ctypes.c_void_p * max(1, len(arrays)))(*[a.ctypes.data for a in arrays])  # noqa: E731
         self._unit_ptrs, self._cache_ptrs = ptrs(self.units), ptrs(self.caches)
         self._out = np.empty((n_sets, 3), np.float64)
@@ -306,11 +356,24 @@ class NativeStreamingCascade:
         alpha = np.ascontiguousarray(alpha, dtype=np.float64)
         log_actuator = np.ascontiguousarray(log_actuator, dtype=np.float64)
         if sin_q.shape != (n - 1, 4) or alpha.shape != (n - 1,) or log_actuator.shape != (n, 3):
-            raise ValueError(f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, 3); "
-                             f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}")
-        rc = self.lib.pgchtc_frame(self.config.ctypes.data, self._unit_ptrs, self.norm.ctypes.data, LOG_RATIO_BOUND,
-                                   sin_q.ctypes.data, alpha.ctypes.data, log_actuator.ctypes.data, self.n_seen % self.window,
-                                   min(self.n_seen, self.window - 1), self._cache_ptrs, self._out.ctypes.data, self.threads)
+            raise ValueError(
+                f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, 3); "
+                f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}"
+            )
+        rc = self.lib.pgchtc_frame(
+            self.config.ctypes.data,
+            self._unit_ptrs,
+            self.norm.ctypes.data,
+            LOG_RATIO_BOUND,
+            sin_q.ctypes.data,
+            alpha.ctypes.data,
+            log_actuator.ctypes.data,
+            self.n_seen % self.window,
+            min(self.n_seen, self.window - 1),
+            self._cache_ptrs,
+            self._out.ctypes.data,
+            self.threads,
+        )
         if rc == 2:  # the helper thread could not be started: this frame, and the next, on one
             self.threads = 1
         elif rc != 0:

@@ -154,7 +154,9 @@ class TemporalResidual(nn.Module):
         super().__init__()
         self.cfg = cfg
         self.embed = nn.Linear(N_FEATURES, cfg.d_model)
-        self.layers = nn.ModuleList(SlidingWindowLayer(cfg.d_model, cfg.n_heads, cfg.window, cfg.d_ff) for _ in range(cfg.n_layers))
+        self.layers = nn.ModuleList(
+            SlidingWindowLayer(cfg.d_model, cfg.n_heads, cfg.window, cfg.d_ff) for _ in range(cfg.n_layers)
+        )
         self.norm = nn.LayerNorm(cfg.d_model)
         self.head = nn.Linear(cfg.d_model, 3)
         nn.init.zeros_(self.head.weight)  # start as "no residual": r_TR = 0
@@ -189,8 +191,10 @@ class TemporalResidual(nn.Module):
         dk = c.d_model // c.n_heads
         out = []
         for _ in range(c.n_layers):
-            out += [torch.zeros((n_streams, c.n_heads, dk, c.window), device=device, dtype=dtype),
-                    torch.zeros((n_streams, c.n_heads, c.window, dk), device=device, dtype=dtype)]
+            out += [
+                torch.zeros((n_streams, c.n_heads, dk, c.window), device=device, dtype=dtype),
+                torch.zeros((n_streams, c.n_heads, c.window, dk), device=device, dtype=dtype),
+            ]
         return out
 
 

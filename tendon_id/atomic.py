@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+
+import numpy as np
 
 
 def _umask() -> int:
@@ -42,8 +46,6 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
 
 def _jsonable(o):
     """numpy scalars and arrays as plain JSON values; anything else number-like as a float."""
-    import numpy as np
-
     if isinstance(o, np.ndarray):
         return o.tolist()
     if isinstance(o, (np.integer, np.bool_)):
@@ -53,8 +55,6 @@ def _jsonable(o):
 
 def _finite(o):
     """Non-finite floats as null, recursively."""
-    import math
-
     if isinstance(o, dict):
         return {k: _finite(v) for k, v in o.items()}
     if isinstance(o, (list, tuple)):
@@ -70,8 +70,6 @@ def write_json_atomic(path: str | os.PathLike, obj, *, strict: bool = False) -> 
     numpy values are converted. ``strict`` writes non-finite numbers as ``null`` (standard
     JSON); otherwise they are written as Python's ``NaN``/``Infinity`` tokens.
     """
-    import json
-
     if strict:
         obj = _finite(obj)
     text = json.dumps(obj, indent=2, default=_jsonable, allow_nan=not strict) + "\n"

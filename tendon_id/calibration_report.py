@@ -10,11 +10,15 @@ import numpy as np
 from tendon_id.atomic import atomic_write, write_json_atomic
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
-from tendon_id.zoo import CapstanModel, make
+from tendon_id.posterior import sample_posterior
+from tendon_id.report.html import pyplot
+from tendon_id.zoo.capstan import CapstanModel
+from tendon_id.zoo.registry import make
 
 
 def calibration_json(model: CapstanModel, recordings: Sequence[Recording]) -> dict:
     """``{"model", "tying", "A", "B", "mu0", "terminal": M}``; tied: 3 numbers each, per-guide: N-1 lists of 3."""
+
     def shape(a: np.ndarray):
         return a[0].tolist() if model.tying == "tied" else a.tolist()
 
@@ -30,26 +34,33 @@ def calibration_json(model: CapstanModel, recordings: Sequence[Recording]) -> di
     }
 
 
-def run_calibration(recordings: Sequence[Recording], *, model: str, tying: str, posterior: bool, out: str | Path, seed: int = 0) -> list[Path]:
+def run_calibration(
+    recordings: Sequence[Recording], *, model: str, tying: str, posterior: bool, out: str | Path, seed: int = 0
+) -> list[Path]:
     """Calibrate, write ``calibration.json`` (and with ``posterior``, ``posterior.json`` and ``corner.png``)."""
     m = make(model, tying=tying, seed=seed) if model != "proximal" else None
     if not isinstance(m, CapstanModel):
-        raise ConfigError(f"--model {model}: calibration needs a capstan-family model (capstan-simple, capstan-contact, capstan-nonsmooth, capstan-const-mu)")
+        raise ConfigError(
+            f"--model {model}: calibration needs a capstan-family model "
+            "(capstan-simple, capstan-contact, capstan-nonsmooth, capstan-const-mu)"
+        )
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     m.fit(recordings)
     written = [write_json_atomic(out / "calibration.json", calibration_json(m, recordings))]
     written.append(m.save(out / "model"))
     if posterior:
-        from tendon_id.posterior import sample_posterior
-
         post = sample_posterior(m, recordings, seed=seed)
-        doc = {"parameters": post.summary(), "tau": float(np.max(post.tau)), "seconds": post.seconds,
-               "acceptance": post.acceptance, "walkers": int(post.chain.shape[1]), "steps_kept": int(post.chain.shape[0])}
+        doc = {
+            "parameters": post.summary(),
+            "tau": float(np.max(post.tau)),
+            "seconds": post.seconds,
+            "acceptance": post.acceptance,
+            "walkers": int(post.chain.shape[1]),
+            "steps_kept": int(post.chain.shape[0]),
+        }
         written.append(write_json_atomic(out / "posterior.json", doc))
         fig = post.corner()
         written.append(atomic_write(out / "corner.png", lambda tmp: fig.savefig(tmp, format="png", dpi=90)))
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
+        pyplot().close(fig)
     return written

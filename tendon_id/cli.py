@@ -1,6 +1,10 @@
 """The ``tendon-id`` command line (DESIGN §10).
 
 Exit codes: 0 ok, 2 bad input (one line naming the file or option), 1 internal error.
+
+The lists in the help texts (models, benchmarks, protocols, effects) come from their
+registries. Each command imports what it runs inside its body, so that ``--help`` and a
+mistyped option answer at once instead of after loading torch.
 """
 
 from __future__ import annotations
@@ -13,7 +17,20 @@ from typing import Optional
 
 import typer
 
+from tendon_id.benchmarks.registry import BENCHMARKS
 from tendon_id.errors import TendonIdError
+from tendon_id.extras import require_extra
+from tendon_id.sim.effects import EFFECT_NAMES
+from tendon_id.sim.protocols import PROTOCOL_NAMES
+from tendon_id.zoo.capstan import CapstanModel
+from tendon_id.zoo.registry import names as model_names
+from tendon_id.zoo.registry import names_of
+
+
+def _one_of(names) -> str:
+    names = list(names)
+    return ", ".join(names[:-1]) + f" or {names[-1]}" if len(names) > 1 else "".join(names)
+
 
 app = typer.Typer(
     name="tendon-id",
@@ -27,9 +44,15 @@ app = typer.Typer(
 @app.command()
 def simulate(
     recipe: str = typer.Option("snake12-paper", "--recipe", help="Bundled recipe name or a recipe .toml file."),
-    protocol: str = typer.Option("posterior-3", "--protocol", help="terminal-only, posterior-3, posterior-6, planned-paths or single-passage."),
-    effects: Optional[str] = typer.Option(None, "--effects", help="Comma-separated effects to switch on instead of the recipe's, or 'none'."),
-    seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (default: the recipe's). The same seed gives the same bytes."),
+    protocol: str = typer.Option("posterior-3", "--protocol", help=f"{_one_of(PROTOCOL_NAMES)}."),
+    effects: Optional[str] = typer.Option(
+        None,
+        "--effects",
+        help=f"Comma-separated effects to switch on instead of the recipe's ({', '.join(EFFECT_NAMES)}), or 'none'.",
+    ),
+    seed: Optional[int] = typer.Option(
+        None, "--seed", help="Random seed (default: the recipe's). The same seed gives the same bytes."
+    ),
     frames: Optional[int] = typer.Option(None, "--frames", help="Total frames (default: the recipe's)."),
     out: Path = typer.Option(..., "--out", help="Output file, .parquet or .csv (with a .json sidecar)."),
 ) -> None:
@@ -91,7 +114,7 @@ def _write_json(path: Path, obj: dict) -> None:
 
 @app.command()
 def fit(
-    model: str = typer.Argument(..., help="Zoo model: proximal, capstan-simple, capstan-contact, capstan-nonsmooth, capstan-const-mu or capstan."),
+    model: str = typer.Argument(..., help=f"Zoo model: {_one_of(model_names())}."),
     data: list[Path] = typer.Option(None, "--data", help="Recording(s) to fit on; repeat for several."),
     set_: list[str] = typer.Option(None, "--set", help="Model setting key=value (JSON values); repeatable."),
     out: Path = typer.Option(..., "--out", help="Folder for the fitted model (model.json + arrays.npz)."),
@@ -129,7 +152,10 @@ def evaluate(
     typer.echo(f"terminal joint     RMSE {t['rmse']:8.3f} N   R2 {t['r2']:7.3f}   max error {t['max_error']:8.3f} N")
     if score["joints"]:
         for j, mj in enumerate(score["joints"]["per_joint"], start=1):
-            typer.echo(f"joint {j:2d}           RMSE {mj['rmse']:8.3f} N   R2 {mj['r2']:7.3f}   max error {mj['max_error']:8.3f} N")
+            typer.echo(
+                f"joint {j:2d}           RMSE {mj['rmse']:8.3f} N   R2 {mj['r2']:7.3f}   "
+                f"max error {mj['max_error']:8.3f} N"
+            )
         o = score["joints"]["overall"]
         if o:
             typer.echo(f"intermediate 2..{rec.n_modules - 1}  RMSE {o['rmse']:8.3f} N   R2 {o['r2']:7.3f}")
@@ -138,13 +164,17 @@ def evaluate(
 @app.command()
 def calibrate(
     data: list[Path] = typer.Option(None, "--data", help="Recording(s) with terminal labels; repeat for several."),
-    model: str = typer.Option("capstan-nonsmooth", "--model", help="A capstan-family model."),
+    model: str = typer.Option(
+        "capstan-nonsmooth", "--model", help=f"A capstan-family model: {_one_of(names_of(CapstanModel))}."
+    ),
     tying: str = typer.Option("tied", "--tying", help="tied or per-guide."),
     posterior: bool = typer.Option(False, "--posterior", help="Also sample the emcee posterior."),
     out: Path = typer.Option(..., "--out", help="Output folder: calibration.json (+ posterior.json, corner.png)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the multi-start and of the sampler."),
 ) -> None:
     """Constrained calibration of (A_i, B_i) with nlopt, and optionally their posterior with emcee."""
+    if posterior:
+        require_extra("posterior", "--posterior (its corner plot)")
     from tendon_id.calibration_report import run_calibration
 
     written = run_calibration(_read_all(data), model=model, tying=tying, posterior=posterior, out=out, seed=seed)
@@ -152,19 +182,27 @@ def calibrate(
         typer.echo(f"wrote {path}")
 
 
-@app.command()
+@app.command(
+    help="Reproduce a table of the paper on simulated data.\n\n\b\n"
+    + "\n".join(f"{name:9s} {b.summary}" for name, b in BENCHMARKS.items())
+)
 def benchmark(
-    name: str = typer.Argument(..., help="table1, table2, recovery, sweep or latency."),
+    name: str = typer.Argument(..., help=f"{_one_of(BENCHMARKS)}."),
     preset: str = typer.Option("fast", "--preset", help="fast or paper (size of the learned models)."),
     recipe: Optional[str] = typer.Option(None, "--recipe", help="Recipe (default: the benchmark's own)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the first data split."),
-    repeats: Optional[int] = typer.Option(None, "--repeats", help="Random splits to average over (tables; default 5 for table1, 3 for table2)."),
+    repeats: Optional[int] = typer.Option(
+        None, "--repeats", help="Random splits to average over (tables; default 5 for table1, 3 for table2)."
+    ),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the result as JSON (DESIGN §10 shape)."),
-    backend: str = typer.Option("loky", "--backend", help="joblib backend of the sweep's jobs (loky, threading, or a registered dask/ray)."),
+    backend: str = typer.Option(
+        "loky", "--backend", help="joblib backend of the sweep's jobs (loky, threading, or a registered dask/ray)."
+    ),
     jobs: int = typer.Option(1, "--jobs", help="Parallel jobs of the sweep (joblib's n_jobs; -1: all cores)."),
-    points: int = typer.Option(5, "--points", help="Grid values per parameter of the sweep (log-spaced, operating point included)."),
+    points: int = typer.Option(
+        5, "--points", help="Grid values per parameter of the sweep (log-spaced, operating point included)."
+    ),
 ) -> None:
-    """Reproduce a table of the paper on simulated data."""
     from tendon_id.benchmarks.registry import format_table, run_benchmark
 
     if repeats is not None and repeats < 1:
@@ -190,9 +228,15 @@ def identifiability(
     data: list[Path] = typer.Option(None, "--data", help="Recording(s) with terminal labels; repeat for several."),
     out: Path = typer.Option(Path("identifiability.html"), "--out", help="Self-contained HTML report."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the JSON summary (DESIGN §10 shape)."),
-    model: str = typer.Option("auto", "--model", help="auto, capstan-contact or capstan-simple (smooth structure analysed)."),
-    noise_n: Optional[float] = typer.Option(None, "--noise-n", help="Load-cell noise in N (default: the recording's metadata, else 1 N)."),
-    learned: bool = typer.Option(False, "--learned", help="Also train tied and per-guide PG-CHTC (fast preset; minutes)."),
+    model: str = typer.Option(
+        "auto", "--model", help="auto, capstan-contact or capstan-simple (smooth structure analysed)."
+    ),
+    noise_n: Optional[float] = typer.Option(
+        None, "--noise-n", help="Load-cell noise in N (default: the recording's metadata, else 1 N)."
+    ),
+    learned: bool = typer.Option(
+        False, "--learned", help="Also train tied and per-guide PG-CHTC (fast preset; minutes)."
+    ),
     seeds: int = typer.Option(3, "--seeds", help="Seeds of the learned comparison."),
     seed: int = typer.Option(0, "--seed", help="Seed of the samplers and the frame subset."),
 ) -> None:
@@ -209,8 +253,10 @@ def identifiability(
     result = analyse(recs, settings, learned=learned, learned_seeds=seeds)
     path = write_report(result, out, json_out)
     js = result.to_json()
-    typer.echo(f"tied: rank {js['tied']['rank']}/{js['tied']['n_params']}; per-guide: rank {js['per_guide']['rank']}/"
-               f"{js['per_guide']['n_params']} ({js['per_guide']['n_unidentifiable']} unidentifiable directions)")
+    typer.echo(
+        f"tied: rank {js['tied']['rank']}/{js['tied']['n_params']}; per-guide: rank {js['per_guide']['rank']}/"
+        f"{js['per_guide']['n_params']} ({js['per_guide']['n_unidentifiable']} unidentifiable directions)"
+    )
     typer.echo(f"instrument joint {js['advice']['instrument_joint']}; excite joints {js['advice']['excite_joints']}")
     typer.echo(f"wrote {path}" + (f" and {json_out}" if json_out else ""))
 
@@ -219,10 +265,14 @@ def identifiability(
 def demo(
     out: Path = typer.Option(Path("out"), "--out", help="Folder for the demo's report."),
     recipe: str = typer.Option("snake12-paper", "--recipe", help="Recipe to run the demo on."),
-    frames: Optional[int] = typer.Option(None, "--frames", help="Frames per protocol in the summary (default: the demo's small sizes)."),
-    models: bool = typer.Option(True, "--models/--no-models", help="Train PG-CHTC (fast) and calibrate capstan-nonsmooth for the comparison."),
+    frames: Optional[int] = typer.Option(
+        None, "--frames", help="Frames per protocol in the summary (default: the demo's small sizes)."
+    ),
+    models: bool = typer.Option(
+        True, "--models/--no-models", help="Train PG-CHTC (fast) and calibrate capstan-nonsmooth for the comparison."
+    ),
 ) -> None:
-    """The main job on the default recipe: simulate it, compare capstan-nonsmooth with PG-CHTC, write OUT/summary.html."""
+    """The main job on the default recipe: simulate, compare capstan-nonsmooth with PG-CHTC, write OUT/summary.html."""
     from tendon_id.demo import run_demo
 
     path = run_demo(out, recipe=recipe, frames=frames, models=models)
@@ -252,7 +302,9 @@ def main(argv: list[str] | None = None) -> int:
             return int(exc.exit_code)
         if os.environ.get("TENDON_ID_DEBUG"):
             raise
-        typer.echo(f"tendon-id: internal error: {type(exc).__name__}: {exc} (set TENDON_ID_DEBUG=1 for a traceback)", err=True)
+        typer.echo(
+            f"tendon-id: internal error: {type(exc).__name__}: {exc} (set TENDON_ID_DEBUG=1 for a traceback)", err=True
+        )
         return 1
 
 

@@ -89,7 +89,14 @@ def load(
     if effects is not None:
         effects = list(parse_effect_names(effects)) if isinstance(effects, str) else list(effects)
     key = json.dumps(
-        {"recipe": recipe.to_dict(), "protocol": protocol, "seed": seed, "effects": effects, "frames": frames, "version": __version__},
+        {
+            "recipe": recipe.to_dict(),
+            "protocol": protocol,
+            "seed": seed,
+            "effects": effects,
+            "frames": frames,
+            "version": __version__,
+        },
         sort_keys=True,
     )
     digest = hashlib.sha256(key.encode()).hexdigest()[:16]

@@ -12,9 +12,12 @@ import os
 import time
 from pathlib import Path
 
+from tendon_id import zoo
 from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
 from tendon_id.datasets import DEFAULT_RECIPE, load
+from tendon_id.identifiability import analyse
 from tendon_id.report.comparison import add_comparison
+from tendon_id.report.identifiability import write_report
 from tendon_id.report.summary import summary_page
 
 #: Frames per protocol shown in the recording summary.
@@ -23,15 +26,18 @@ DEMO_FRAMES = {"terminal-only": 5000, "posterior-3": 5000, "posterior-6": 3000, 
 
 def write_identifiability(rec, path: Path, *, progress: bool | None = None) -> Path:
     """The identifiability report (and its JSON beside it) of one recording."""
-    from tendon_id.identifiability import analyse
-    from tendon_id.report.identifiability import write_report
-
     result = analyse(rec, progress=progress)
     return write_report(result, path, path.with_suffix(".json"))
 
 
-def run_demo(out: str | os.PathLike = "out", *, recipe: str = DEFAULT_RECIPE, frames: int | None = None, models: bool = True,
-             progress: bool | None = None) -> Path:
+def run_demo(
+    out: str | os.PathLike = "out",
+    *,
+    recipe: str = DEFAULT_RECIPE,
+    frames: int | None = None,
+    models: bool = True,
+    progress: bool | None = None,
+) -> Path:
     """Build the demo and write ``out/summary.html``.
 
     Parameters
@@ -53,8 +59,6 @@ def run_demo(out: str | os.PathLike = "out", *, recipe: str = DEFAULT_RECIPE, fr
     Path
         The page.
     """
-    from tendon_id import zoo
-
     t0 = time.perf_counter()
     out = Path(out)
     recs = [load(recipe, protocol=p, frames=frames or n, progress=progress) for p, n in DEMO_FRAMES.items()]
@@ -65,12 +69,21 @@ def run_demo(out: str | os.PathLike = "out", *, recipe: str = DEFAULT_RECIPE, fr
             "capstan-nonsmooth": zoo.make("capstan-nonsmooth").fit(split.calibration),
             "PG-CHTC (fast)": zoo.make("pg-chtc", preset="fast", progress=progress).fit(split.calibration),
         }
-        add_comparison(page, {p: split.test[p] for p in TEST_PROTOCOLS}, fitted,
-                       "Capstan-nonsmooth against PG-CHTC on held-out trajectories (paper Table II split)")
+        add_comparison(
+            page,
+            {p: split.test[p] for p in TEST_PROTOCOLS},
+            fitted,
+            "Capstan-nonsmooth against PG-CHTC on held-out trajectories (paper Table II split)",
+        )
         terminal_only = next(r for r in recs if r.protocol == "terminal-only")
         ident = write_identifiability(terminal_only, out / "identifiability.html", progress=progress)
         page.heading("Identifiability")
-        page.link(ident.name, ident.name, before="What the terminal-only data can and cannot tell (tied against per-guide laws, "
-                  "the intermediate-tension ambiguity band, which joint to instrument next): ", after=".")
+        page.link(
+            ident.name,
+            ident.name,
+            before="What the terminal-only data can and cannot tell (tied against per-guide laws, "
+            "the intermediate-tension ambiguity band, which joint to instrument next): ",
+            after=".",
+        )
     page.paragraph(f"Built in {time.perf_counter() - t0:.0f} s.", cls="note")
     return page.write(out / "summary.html")

@@ -37,7 +37,7 @@ class RecordingError(TendonIdError, ValueError):
             where.append(f"column '{self.column}'")
         if self.row is not None:
             where.append(f"row {self.row}")
-        return (": ".join([", ".join(where), self.reason]) if where else self.reason)
+        return ": ".join([", ".join(where), self.reason]) if where else self.reason
 
 
 class ConfigError(TendonIdError, ValueError):

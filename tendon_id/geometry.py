@@ -32,7 +32,10 @@ __all__ = [
     "joint_rotation",
     "projected_bend",
     "projected_wrap",
+    "sin_q",
     "tendon_azimuths",
+    "turn_into_upper",
+    "turn_out_of_lower",
 ]
 
 
@@ -156,6 +159,23 @@ def backbone_wrap(theta: ArrayLike, alpha_0: float) -> NDArray[np.float64]:
     return np.minimum(0.5 * mag[..., :-1] + 0.5 * mag[..., 1:] + alpha_0, np.pi)
 
 
+def sin_q(theta: ArrayLike) -> NDArray[np.float64]:
+    """The unit's joint inputs ``sin(q_k)`` with ``q_k = (theta_k, theta_{k+1})`` (paper Eq. (2), Eq. (7)).
+
+    Parameters
+    ----------
+    theta : array_like, shape (..., N, 2)
+        Joint angles [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., N-1, 4)
+        ``[sin theta_k, sin theta_{k+1}]`` per guide ``k = 1..N-1`` (dimensionless).
+    """
+    s = np.sin(theta)
+    return np.concatenate([s[..., :-1, :], s[..., 1:, :]], axis=-1)
+
+
 def projected_wrap(theta: ArrayLike, psi: ArrayLike, alpha_0: float) -> NDArray[np.float64]:
     """Per-tendon wrap from projected bends (DESIGN §4, small-angle form).
 
@@ -203,7 +223,7 @@ def joint_rotation(theta: ArrayLike) -> NDArray[np.float64]:
     return R
 
 
-def _turn_out_of_lower(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
+def turn_out_of_lower(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
     """Turn [rad] at a lower link's top hole: the segment across the joint against e_z.
 
     The segment in the lower link's frame is ``R (u + h e_z) - (u - h e_z)``, written out
@@ -215,7 +235,7 @@ def _turn_out_of_lower(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArra
     return np.arctan2(np.hypot(sx, sy), sz)
 
 
-def _turn_into_upper(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
+def turn_into_upper(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
     """Turn [rad] at an upper link's bottom hole: the segment seen from the upper link.
 
     ``R^T s = (u + h e_z) - R^T (u - h e_z)`` against e_z; atan2 of components keeps tiny
@@ -265,15 +285,15 @@ def exact_wrap(
     n = theta.shape[1]
     if not on_path_only:
         Rb = R[:, :, None, None]  # broadcast over the (S, 3) tendons
-        into_upper, out_of_lower = _turn_into_upper(Rb, ux, uy, h), _turn_out_of_lower(Rb, ux, uy, h)
+        into_upper, out_of_lower = turn_into_upper(Rb, ux, uy, h), turn_out_of_lower(Rb, ux, uy, h)
         # Guide k = link k: its bottom hole turns at joint k, its top hole at joint k+1.
         return np.minimum(into_upper[:, :-1] + out_of_lower[:, 1:] + geometry.alpha_0, np.pi)
     if psi.shape[0] != n:
         raise ValueError("on_path_only needs one row of azimuths per set (S = N)")
     k, j = np.nonzero(np.arange(1, n)[:, None] < np.arange(1, n + 1)[None, :])  # guide index k-1, set index j-1
     ux_p, uy_p = ux[j], uy[j]  # (P, 3)
-    into_upper = _turn_into_upper(R[:, k, None], ux_p, uy_p, h)  # at joint k
-    out_of_lower = _turn_out_of_lower(R[:, k + 1, None], ux_p, uy_p, h)  # at joint k+1
+    into_upper = turn_into_upper(R[:, k, None], ux_p, uy_p, h)  # at joint k
+    out_of_lower = turn_out_of_lower(R[:, k + 1, None], ux_p, uy_p, h)  # at joint k+1
     wrap = np.full((theta.shape[0], n - 1, n, 3), np.nan)
     wrap[:, k, j] = np.minimum(into_upper + out_of_lower + geometry.alpha_0, np.pi)
     return wrap

@@ -31,7 +31,11 @@ def tendon_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float]:
     sst = np.sum((y - y.mean(axis=0)) ** 2, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         r2 = np.where(sst > 0, 1.0 - np.sum(err**2, axis=0) / sst, np.nan)
-    return {"rmse": float(np.mean(rmse)), "r2": float(np.nanmean(r2)), "max_error": float(np.mean(np.max(np.abs(err), axis=0)))}
+    return {
+        "rmse": float(np.mean(rmse)),
+        "r2": float(np.nanmean(r2)),
+        "max_error": float(np.mean(np.max(np.abs(err), axis=0))),
+    }
 
 
 def frame_weighted(metrics: Sequence[dict[str, float]], frames: Sequence[int]) -> dict[str, float]:

@@ -4,15 +4,17 @@ Likelihood: load-cell noise.  Both the actuator-side input and the terminal
 label are read by load cells with noise ``sigma_i`` [N] (one per tendon), so
 the terminal log residual ``r_t = ln T_hat[N, N, i] - ln T[N, N, i]`` has
 variance ``sigma_i^2 (1 / T[1, N]^2 + 1 / T[N, N]^2)`` to first order (the
-delta method): a heteroscedastic Gaussian whose weights come from the measured
-tensions.  Prior: uniform on the feasible set ``B >= |A|`` (``mu >= 0`` on
-``[0, pi]``) within the sanity limits of
-:class:`~tendon_id.calibration.LawLayout`, and uniform in ``ln sigma_i`` [ln N] on
-``[-12, 6]``.
+delta method): a heteroscedastic Gaussian whose weights
+(:func:`~tendon_id.problem.delta_method_weight`) come from the measured tensions.
+Prior: uniform on the feasible set ``B >= |A|`` (``mu >= 0`` on ``[0, pi]``) within
+the sanity limits of :class:`~tendon_id.law_layout.LawLayout`, and uniform in
+``ln sigma_i`` [ln N] on ``[-12, 6]``.  Design, weights and layout are those of the
+model's :class:`~tendon_id.problem.LawProblem`, the one calibration fits.
 
 For smooth models (``ln T_N`` linear in the law) the log-probability needs only
-``X^T X``, ``X^T y`` and ``y^T y``, so it costs O(1) per walker whatever the
-number of frames; it is vectorised over walkers (``emcee``'s ``vectorize=True``).
+``X^T W X``, ``X^T W y`` and ``y^T W y`` (:meth:`~tendon_id.problem.LawProblem.quadratic`),
+so it costs O(1) per walker whatever the number of frames; it is vectorised over
+walkers (``emcee``'s ``vectorize=True``).
 Nonsmooth models evaluate the chain per walker and are much slower.
 
 Encoder resolution: the model reads quantised joint angles, and while a joint is
@@ -26,7 +28,7 @@ sampled chain (a linearised errors-in-variables marginalisation).
 Convergence follows the integrated autocorrelation time (Goodman & Weare 2010;
 emcee's ``get_autocorr_time``): sampling continues until the chain is longer
 than 50 ``tau`` and the effective sample size of every parameter reaches the
-target.
+target.  ESS and R-hat of the result come from ArviZ (:mod:`tendon_id.mcmc`).
 """
 
 from __future__ import annotations
@@ -35,18 +37,19 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import dataclasses
-
 import emcee
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.calibration import LawLayout, _fit_quadratic, linear_design
 from tendon_id.data import Recording
+from tendon_id.encoder import encoder_covariance
 from tendon_id.errors import ConfigError
+from tendon_id.law_layout import LawLayout
+from tendon_id.mcmc import ess_rhat, inference_data
+from tendon_id.problem import LawProblem
 from tendon_id.progress import progress_bar
 from tendon_id.zoo.capstan import CapstanModel
-from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
+from tendon_id.zoo.inputs import as_recordings
 
 LOG_SIGMA_RANGE = (-12.0, 6.0)
 
@@ -109,8 +112,14 @@ class PosteriorResult:
         s = self.samples
         q = np.percentile(s, [2.5, 97.5], axis=0)
         return {
-            n: {"mean": float(s[:, k].mean()), "sd": float(s[:, k].std(ddof=1)), "q2.5": float(q[0, k]), "q97.5": float(q[1, k]),
-                "ess": float(self.ess[k]), "rhat": float(self.rhat[k])}
+            n: {
+                "mean": float(s[:, k].mean()),
+                "sd": float(s[:, k].std(ddof=1)),
+                "q2.5": float(q[0, k]),
+                "q97.5": float(q[1, k]),
+                "ess": float(self.ess[k]),
+                "rhat": float(self.rhat[k]),
+            }
             for k, n in enumerate(self.names)
         }
 
@@ -132,22 +141,32 @@ class PosteriorResult:
 
     def to_arviz(self):
         """An ``arviz.InferenceData`` with one chain per walker."""
-        import arviz as az
-
-        return az.from_dict(posterior={n: self.chain[:, :, k].T for k, n in enumerate(self.names)})
+        return inference_data(self.names, self.chain)
 
     def corner(self, truths: Sequence[float] | None = None):
         """Corner plot of the law parameters (``corner`` package); returns the figure."""
+        # corner (and matplotlib) are the optional ``posterior`` extra: imported when a plot is asked for.
         import corner
         import matplotlib
 
         matplotlib.use("Agg")
         keep = [k for k, n in enumerate(self.names) if not n.startswith("log_sigma")]
-        return corner.corner(self.samples[:, keep], labels=[self.names[k] for k in keep],
-                             truths=None if truths is None else [truths[k] for k in keep], quantiles=[0.025, 0.5, 0.975])
+        return corner.corner(
+            self.samples[:, keep],
+            labels=[self.names[k] for k in keep],
+            truths=None if truths is None else [truths[k] for k in keep],
+            quantiles=[0.025, 0.5, 0.975],
+        )
 
-    def predictive_bands(self, model: CapstanModel, data: Recording | Sequence[Recording], *, n_draws: int = 100,
-                         quantiles: tuple[float, float] = (2.5, 97.5), seed: int = 0) -> dict[str, NDArray]:
+    def predictive_bands(
+        self,
+        model: CapstanModel,
+        data: Recording | Sequence[Recording],
+        *,
+        n_draws: int = 100,
+        quantiles: tuple[float, float] = (2.5, 97.5),
+        seed: int = 0,
+    ) -> dict[str, NDArray]:
         """Posterior-predictive bands of the joint-side tensions ``T[j, j, i]`` [N].
 
         Returns
@@ -156,77 +175,16 @@ class PosteriorResult:
             ``"lo"``, ``"median"``, ``"hi"``: arrays of shape (T, N, 3) (parameter
             uncertainty only; measurement noise is not added).
         """
-        inputs = model._inputs(data)
+        inputs = model.inputs(data)
         A, B = self.law_samples()
         rng = np.random.default_rng(seed)
         pick = rng.choice(A.shape[0], size=min(n_draws, A.shape[0]), replace=False)
-        values = model._fitted_values()
-        draws = np.stack([np.exp(model.propagate(inputs, A[d], B[d], values, keep_chain=False)).astype(np.float32) for d in pick])
+        values = model.block_params_
+        draws = np.stack(
+            [np.exp(model.propagate(inputs, A[d], B[d], values, keep_chain=False)).astype(np.float32) for d in pick]
+        )
         lo, med, hi = np.percentile(draws, [quantiles[0], 50.0, quantiles[1]], axis=0)
         return {"lo": lo, "median": med, "hi": hi}
-
-
-def _law_feasible(law: NDArray, layout: LawLayout) -> NDArray[np.bool_]:
-    """Feasibility of one tendon's law draws, ``law`` of shape (..., p)."""
-    return layout.feasible(law)
-
-
-def _log_prior_mask(theta: NDArray, layout: LawLayout) -> NDArray[np.bool_]:
-    """True where every tendon's law is feasible and the noise is in range (theta: (W, params))."""
-    p = layout.size
-    ok = np.ones(theta.shape[0], dtype=bool)
-    for i in range(3):
-        ok &= layout.feasible(theta[:, i * p : (i + 1) * p])
-    ls = theta[:, 3 * p :]
-    ok &= np.all((ls >= LOG_SIGMA_RANGE[0]) & (ls <= LOG_SIGMA_RANGE[1]), axis=1)
-    return ok
-
-
-def encoder_runs(angles: NDArray) -> NDArray[np.int64]:
-    """Group of every reading whose quantisation error is shared: one per channel and reading value.
-
-    A quantisation error is a function of the true angle, so a joint that returns to
-    the same held pose (the same reading) repeats the same error, in any trajectory.
-    Readings of the same value while moving are grouped too, which errs on the side
-    of more correlation (wider intervals).
-
-    Returns
-    -------
-    ndarray of int, shape (T, N, 2)
-        Group ids, unique over all channels.
-    """
-    t = angles.shape[0]
-    flat = angles.reshape(t, -1)
-    ids = np.empty(flat.shape, dtype=np.int64)
-    offset = 0
-    for c in range(flat.shape[1]):
-        _, inverse = np.unique(flat[:, c], return_inverse=True)
-        ids[:, c] = inverse + offset
-        offset += int(inverse.max()) + 1
-    return ids.reshape(angles.shape)
-
-
-def encoder_covariance(model: CapstanModel, inputs: TransmissionInputs, encoder_step: float, *, n_draws: int = 64,
-                       seed: int = 0) -> NDArray[np.float64]:
-    """Covariance of the law from encoder quantisation, per tendon, shape (3, p, p).
-
-    Refits the smooth surrogate of ``model`` (its law and exponent blocks) on
-    angles offset by ``U(-step/2, step/2)`` per group of :func:`encoder_runs`.
-    """
-    surrogate = CapstanModel(mu_law=model.mu_law, blocks=[b for b in model.block_objects if b.stage == "exponent"],
-                             tying=model.tying)
-    layout = LawLayout(model.mu_law, model.A_.shape[0])
-    runs = encoder_runs(inputs.angles)
-    n_runs = int(runs.max()) + 1
-    rng = np.random.default_rng(seed)
-    fits = np.empty((n_draws, 3, layout.size))
-    for d in range(n_draws):
-        offset = rng.uniform(-0.5, 0.5, size=n_runs) * encoder_step
-        shifted = dataclasses.replace(inputs, angles=inputs.angles + offset[runs])
-        X, Y = linear_design(surrogate, shifted)
-        for i in range(3):
-            fits[d, i] = _fit_quadratic(X, Y[:, i], layout, 1e-10).x
-    return np.stack([np.atleast_2d(np.cov(fits[:, i].T)) for i in range(3)])
 
 
 def sample_posterior(
@@ -269,37 +227,32 @@ def sample_posterior(
     """
     if not isinstance(model, CapstanModel):
         raise ConfigError("the posterior is defined for the capstan family of models")
-    model._check_fitted()
     recs = [r.fitting_view() for r in as_recordings(data)]
-    inputs = TransmissionInputs.from_recordings(recs, model.geometry_)
+    inputs = model.inputs(recs)  # raises NotFittedError on an unfitted model
     if encoder_bits == "auto":
         encoder_bits = int((recs[0].meta.get("sensors") or {}).get("encoder_bits", 12))
-    layout = LawLayout(model.mu_law, model.A_.shape[0])
+    # The fitted block parameters; every frame counts here, the warm-up included.
+    problem = LawProblem.from_model(model, inputs, values=model.block_params_)
+    layout = problem.layout
     p = layout.size
     names = parameter_names(model)
     ndim = len(names)
     if n_walkers < 2 * ndim:
         n_walkers = 2 * ndim + (2 * ndim) % 2
     n_obs = inputs.n_frames
-    log_label = np.log(inputs.terminal)
-    # Delta-method weights of the log residual under load-cell noise, in N^2 (see the module docstring).
-    weight = 1.0 / (1.0 / inputs.actuator[:, -1] ** 2 + 1.0 / inputs.terminal**2)  # (T, 3)
     theta_law = np.stack([layout.join(model.A_[:, i], model.B_[:, i]) for i in range(3)])  # (3, p)
 
     if model.is_smooth:
-        X, Y = linear_design(model, inputs)
-        Ms = [X.T @ (weight[:, i, None] * X) for i in range(3)]
-        bs = [X.T @ (weight[:, i] * Y[:, i]) for i in range(3)]
-        cs = [float(np.sum(weight[:, i] * Y[:, i] ** 2)) for i in range(3)]
+        quads = [problem.quadratic(i) for i in range(3)]  # delta-method weighted (M, b, c) at sigma = 1 N
 
         def sse(theta: NDArray) -> NDArray:  # weighted sum of squares, (W, 3) [N^2]
             out = np.empty((theta.shape[0], 3))
-            for i in range(3):
+            for i, (M, b, c) in enumerate(quads):
                 th = theta[:, i * p : (i + 1) * p]
-                out[:, i] = np.einsum("wp,pq,wq->w", th, Ms[i], th) - 2.0 * th @ bs[i] + cs[i]
+                out[:, i] = np.einsum("wp,pq,wq->w", th, M, th) - 2.0 * th @ b + c
             return out
     else:
-        values = model._fitted_values()
+        log_label = np.log(inputs.terminal)
 
         def sse(theta: NDArray) -> NDArray:
             out = np.empty((theta.shape[0], 3))
@@ -307,8 +260,8 @@ def sample_posterior(
                 th = theta[w, : 3 * p].reshape(3, p)
                 A = np.stack([layout.split(th[i])[0] for i in range(3)], axis=1)
                 B = np.stack([layout.split(th[i])[1] for i in range(3)], axis=1)
-                pred = model.terminal_reading(inputs, A, B, values)
-                out[w] = np.sum(weight * (np.log(pred) - log_label) ** 2, axis=0)
+                pred = problem.terminal_reading(A, B)
+                out[w] = np.sum(problem.weight * (np.log(pred) - log_label) ** 2, axis=0)
             return out
 
     # The walkers move in the free box coordinates (mu0, r) of LawLayout, where the feasible
@@ -384,19 +337,25 @@ def sample_posterior(
             shift = rng.multivariate_normal(np.zeros(p), encoder_cov[i], size=law.shape[:2], check_valid="ignore")
             moved = law + shift
             for _ in range(20):  # keep draws in the feasible set: redraw the shifts that leave it
-                bad = ~_law_feasible(moved, layout)
+                bad = ~layout.feasible(moved)
                 if not bad.any():
                     break
-                moved[bad] = law[bad] + rng.multivariate_normal(np.zeros(p), encoder_cov[i], size=int(bad.sum()), check_valid="ignore")
-            bad = ~_law_feasible(moved, layout)
+                moved[bad] = law[bad] + rng.multivariate_normal(
+                    np.zeros(p), encoder_cov[i], size=int(bad.sum()), check_valid="ignore"
+                )
+            bad = ~layout.feasible(moved)
             moved[bad] = law[bad]
             chain[:, :, i * p : (i + 1) * p] = moved
-    import arviz as az
-
-    idata = az.from_dict(posterior={n: chain[:, :, k].T for k, n in enumerate(names)})
-    ess = np.array([float(az.ess(idata, var_names=[n])[n].values) for n in names])
-    rhat = np.array([float(az.rhat(idata, var_names=[n])[n].values) for n in names])
-    return PosteriorResult(names=names, chain=chain, tau=np.asarray(tau, dtype=float), ess=ess, rhat=rhat,
-                           acceptance=float(np.mean(sampler.acceptance_fraction)), seconds=time.perf_counter() - t0,
-                           map_theta=np.r_[theta_law.ravel(), np.log(sigma0)], layout=layout, encoder_cov=encoder_cov)
-
+    ess, rhat = ess_rhat(names, chain)
+    return PosteriorResult(
+        names=names,
+        chain=chain,
+        tau=np.asarray(tau, dtype=float),
+        ess=ess,
+        rhat=rhat,
+        acceptance=float(np.mean(sampler.acceptance_fraction)),
+        seconds=time.perf_counter() - t0,
+        map_theta=np.r_[theta_law.ravel(), np.log(sigma0)],
+        layout=layout,
+        encoder_cov=encoder_cov,
+    )

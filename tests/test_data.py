@@ -19,8 +19,7 @@ N = 3
 FRAMES = 20
 
 
-def make_recording(n=N, trajectories=("a", "b"), frames=FRAMES, truth=True, seed=0, meta=None,
-                   extra=None):
+def make_recording(n=N, trajectories=("a", "b"), frames=FRAMES, truth=True, seed=0, meta=None, extra=None):
     """A small valid recording: tensions 80-150 N, angles within +-0.3 rad, 10 Hz."""
     rng = np.random.default_rng(seed)
     T = frames * len(trajectories)
@@ -29,13 +28,27 @@ def make_recording(n=N, trajectories=("a", "b"), frames=FRAMES, truth=True, seed
     angles = rng.uniform(-0.3, 0.3, size=(T, n, 2))
     actuator = rng.uniform(80.0, 150.0, size=(T, n, 3))
     jt = rng.uniform(80.0, 150.0, size=(T, n, 3))
-    base = {"schema_version": 1, "n_modules": n, "sample_rate_hz": 10.0, "protocol": "planned-paths",
-            "robot": {"disk_radius_m": 0.01, "alpha_0_rad": [0.1, 0.2]}, "recipe": "unit-test",
-            "effects": ["contact", "stick_slip"], "seed": seed}
+    base = {
+        "schema_version": 1,
+        "n_modules": n,
+        "sample_rate_hz": 10.0,
+        "protocol": "planned-paths",
+        "robot": {"disk_radius_m": 0.01, "alpha_0_rad": [0.1, 0.2]},
+        "recipe": "unit-test",
+        "effects": ["contact", "stick_slip"],
+        "seed": seed,
+    }
     base.update(meta or {})
-    return Recording.from_arrays(trajectory=traj, t=t, angles=angles, actuator=actuator,
-                                 terminal=jt[:, n - 1], joint_truth=jt if truth else None,
-                                 meta=base, extra=extra)
+    return Recording.from_arrays(
+        trajectory=traj,
+        t=t,
+        angles=angles,
+        actuator=actuator,
+        terminal=jt[:, n - 1],
+        joint_truth=jt if truth else None,
+        meta=base,
+        extra=extra,
+    )
 
 
 def assert_same_data(a: Recording, b: Recording):
@@ -55,6 +68,7 @@ def assert_same_data(a: Recording, b: Recording):
 # ------------------------------------------------------------------------------------------
 # schema and accessors
 # ------------------------------------------------------------------------------------------
+
 
 def test_column_names_canonical_order():
     cols = column_names(2)
@@ -135,8 +149,7 @@ def test_sample_rate_inferred_from_time_when_meta_lacks_it():
 def test_no_truth_recording():
     rec = make_recording(truth=False)
     assert not rec.has_truth and rec.joint_truth is None
-    assert rec.summary()["truth"] == {"terminal": True, "intermediate": False,
-                                      "intermediate_joints": []}
+    assert rec.summary()["truth"] == {"terminal": True, "intermediate": False, "intermediate_joints": []}
 
 
 def test_partial_truth_is_not_joint_truth():
@@ -166,6 +179,7 @@ def test_extra_columns_kept_and_ignored(tmp_path):
 # IO
 # ------------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("name", ["rec.parquet", "rec.csv"])
 def test_round_trip(tmp_path, name):
     rec = make_recording()
@@ -180,7 +194,8 @@ def test_round_trip(tmp_path, name):
         assert json.loads(side.read_text())["n_modules"] == N
     # nothing but the outputs is left in the folder (temp files were renamed away)
     assert sorted(p.name for p in tmp_path.iterdir()) == (
-        ["rec.csv", "rec.json"] if name.endswith(".csv") else ["rec.parquet"])
+        ["rec.csv", "rec.json"] if name.endswith(".csv") else ["rec.parquet"]
+    )
 
 
 def test_parquet_meta_in_schema_metadata(tmp_path):
@@ -217,11 +232,13 @@ def test_csv_from_a_separate_program_loads(tmp_path):
     """A CSV written with the csv module following DESIGN section 3, no sidecar."""
     path = tmp_path / "bench.csv"
     rng = np.random.default_rng(5)
-    header = (["trajectory", "t"]
-              + [f"theta_{k}_{a}" for k in (1, 2) for a in "xy"]
-              + [f"tension_act_{j}_{i}" for j in (1, 2) for i in (1, 2, 3)]
-              + [f"tension_joint_2_{i}" for i in (1, 2, 3)]
-              + ["operator_note"])
+    header = (
+        ["trajectory", "t"]
+        + [f"theta_{k}_{a}" for k in (1, 2) for a in "xy"]
+        + [f"tension_act_{j}_{i}" for j in (1, 2) for i in (1, 2, 3)]
+        + [f"tension_joint_2_{i}" for i in (1, 2, 3)]
+        + ["operator_note"]
+    )
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
@@ -317,6 +334,7 @@ def test_bad_meta_types_rejected():
 # validation
 # ------------------------------------------------------------------------------------------
 
+
 def _set(frame, column, row, value):
     frame = frame.copy()
     if not isinstance(value, float):
@@ -327,6 +345,7 @@ def _set(frame, column, row, value):
 
 def _bad_frames():
     """(id, frame-editing function, column, row or None, extra text the message must contain)."""
+
     def drop(col):
         return lambda f: f.drop(columns=[col])
 
@@ -350,17 +369,25 @@ def _bad_frames():
         ("missing-t", drop("t"), "t", None, "missing"),
         ("nan", lambda f: _set(f, "theta_2_y", 7, np.nan), "theta_2_y", 7, "NaN"),
         ("inf", lambda f: _set(f, "tension_act_1_1", 3, np.inf), "tension_act_1_1", 3, "infinite"),
-        ("negative", lambda f: _set(f, "tension_joint_3_2", 25, -1.0), "tension_joint_3_2", 25,
-         "non-positive"),
-        ("zero-truth", lambda f: _set(f, "tension_joint_1_1", 5, 0.0), "tension_joint_1_1", 5,
-         "non-positive"),
+        ("negative", lambda f: _set(f, "tension_joint_3_2", 25, -1.0), "tension_joint_3_2", 25, "non-positive"),
+        ("zero-truth", lambda f: _set(f, "tension_joint_1_1", 5, 0.0), "tension_joint_1_1", 5, "non-positive"),
         ("time", stale_time, "t", 12, "does not increase"),
-        ("degrees", lambda f: _set(f, "theta_1_x", 4, 17.0), "theta_1_x", 4,
-         "looks like degrees; angles must be in rad"),
+        (
+            "degrees",
+            lambda f: _set(f, "theta_1_x", 4, 17.0),
+            "theta_1_x",
+            4,
+            "looks like degrees; angles must be in rad",
+        ),
         ("non-numeric", lambda f: _set(f, "theta_2_x", 9, "abc"), "theta_2_x", 9, "non-numeric"),
         ("blocks", swap_blocks, "trajectory", 30, "contiguous"),
-        ("extra-module", extra_module, "theta_4_x", None,
-         "n_modules is 3 in the metadata but the columns describe 4 modules"),
+        (
+            "extra-module",
+            extra_module,
+            "theta_4_x",
+            None,
+            "n_modules is 3 in the metadata but the columns describe 4 modules",
+        ),
     ]
 
 
@@ -420,8 +447,9 @@ def test_first_offending_row_across_columns():
 
 def test_meta_n_modules_larger_than_columns():
     rec = make_recording()
-    with pytest.raises(RecordingError, match="n_modules is 4 in the metadata but the columns "
-                                             "describe 3 modules") as exc:
+    with pytest.raises(
+        RecordingError, match="n_modules is 4 in the metadata but the columns describe 3 modules"
+    ) as exc:
         Recording(rec.frame, {**rec.meta, "n_modules": 4})
     assert exc.value.column == "theta_4_x"
 
@@ -463,8 +491,10 @@ def test_validation_scales_to_a_large_recording():
     rec = Recording.from_arrays(
         trajectory=np.repeat([f"tr{i}" for i in range(100)], T // 100),
         t=np.tile(np.arange(T // 100) * 0.1, 100),
-        angles=rng.uniform(-0.3, 0.3, (T, n, 2)), actuator=rng.uniform(80, 150, (T, n, 3)),
-        terminal=rng.uniform(80, 150, (T, 3)))
+        angles=rng.uniform(-0.3, 0.3, (T, n, 2)),
+        actuator=rng.uniform(80, 150, (T, n, 3)),
+        terminal=rng.uniform(80, 150, (T, 3)),
+    )
     assert rec.n_frames == T and len(rec.trajectories) == 100
 
 
@@ -472,13 +502,15 @@ def test_validation_scales_to_a_large_recording():
 # selection
 # ------------------------------------------------------------------------------------------
 
+
 def test_fitting_view_hides_intermediate_truth():
     rec = make_recording(extra={"my_signal": np.zeros(2 * FRAMES)})
     view = rec.fitting_view()
     assert rec.has_truth
     assert not view.has_truth and view.joint_truth is None
-    assert not [c for c in view.frame.columns
-                if c.startswith("tension_joint_") and not c.startswith(f"tension_joint_{N}_")]
+    assert not [
+        c for c in view.frame.columns if c.startswith("tension_joint_") and not c.startswith(f"tension_joint_{N}_")
+    ]
     np.testing.assert_array_equal(view.terminal, rec.terminal)
     np.testing.assert_array_equal(view.actuator, rec.actuator)
     assert "my_signal" in view.frame.columns
@@ -494,7 +526,7 @@ def test_select():
     sub = rec.select(["c", "a"])
     assert sub.trajectories == ["a", "c"]  # recording order
     assert sub.n_frames == 2 * FRAMES
-    np.testing.assert_array_equal(sub.angles, rec.angles[np.r_[0:FRAMES, 2 * FRAMES:3 * FRAMES]])
+    np.testing.assert_array_equal(sub.angles, rec.angles[np.r_[0:FRAMES, 2 * FRAMES : 3 * FRAMES]])
     with pytest.raises(RecordingError, match="'z'"):
         rec.select(["z"])
     with pytest.raises(RecordingError):
@@ -531,8 +563,9 @@ def test_split_three_parts_each_nonempty():
 
 def test_concat():
     a = make_recording(trajectories=("a", "b"), seed=1)
-    b = make_recording(trajectories=("c",), seed=2, meta={"protocol": "posterior-3",
-                                                          "effects": ["contact", "viscoelastic"]})
+    b = make_recording(
+        trajectories=("c",), seed=2, meta={"protocol": "posterior-3", "effects": ["contact", "viscoelastic"]}
+    )
     both = Recording.concat([a, b])
     assert both.trajectories == ["a", "b", "c"]
     np.testing.assert_array_equal(both.angles, np.concatenate([a.angles, b.angles]))
@@ -550,7 +583,7 @@ def test_concat():
 def test_check_history_window():
     rec = make_recording(trajectories=("long", "short"), frames=FRAMES)
     short = rec.select(["long"])
-    f = pd.concat([short.frame, rec.frame.iloc[FRAMES:FRAMES + 5]], ignore_index=True)
+    f = pd.concat([short.frame, rec.frame.iloc[FRAMES : FRAMES + 5]], ignore_index=True)
     r2 = Recording(f, rec.meta)
     r2.check_history_window(5)
     with pytest.raises(RecordingError, match="'short'.*5 frames.*window of 6") as exc:
@@ -575,8 +608,10 @@ def test_summary():
 
 
 def test_importable_without_torch():
-    code = ("import sys; sys.modules['torch'] = None; import tendon_id.data as d; "
-            "assert 'torch' not in [m for m in sys.modules if sys.modules[m] is not None]")
+    code = (
+        "import sys; sys.modules['torch'] = None; import tendon_id.data as d; "
+        "assert 'torch' not in [m for m in sys.modules if sys.modules[m] is not None]"
+    )
     env = dict(os.environ)
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")

@@ -34,6 +34,8 @@ def test_unknown_recipe_names_the_known_ones():
 
 def test_a_recipe_file_by_path(tmp_path):
     p = tmp_path / "mini.toml"
-    p.write_text('name = "mini"\n[robot]\nn_modules = 4\n[protocols.planned-paths]\nframes = 200\ntrajectory_frames = 100\n')
+    p.write_text(
+        'name = "mini"\n[robot]\nn_modules = 4\n[protocols.planned-paths]\nframes = 200\ntrajectory_frames = 100\n'
+    )
     rec = ds.load(p, protocol="planned-paths", cache=False)
     assert rec.n_modules == 4 and rec.n_frames == 200 and rec.meta["recipe"] == "mini"

@@ -16,8 +16,11 @@ def test_tendon_metrics_golden():
 
 
 def test_frame_weighted_reproduces_the_papers_overall_proximal_row():
-    rows = [{"rmse": 48.522, "r2": -0.655, "max_error": 0.0}, {"rmse": 73.075, "r2": -2.747, "max_error": 0.0},
-            {"rmse": 32.699, "r2": 0.486, "max_error": 0.0}]
+    rows = [
+        {"rmse": 48.522, "r2": -0.655, "max_error": 0.0},
+        {"rmse": 73.075, "r2": -2.747, "max_error": 0.0},
+        {"rmse": 32.699, "r2": 0.486, "max_error": 0.0},
+    ]
     overall = frame_weighted(rows, [800, 500, 1260])
     assert overall["rmse"] == pytest.approx(45.530, abs=1e-3)
     assert overall["r2"] == pytest.approx(-0.502, abs=1e-3)

@@ -75,8 +75,15 @@ def test_jobs_are_top_level_functions_for_remote_workers():
 
 def test_sweep_shape_ratios_and_backend(patched):
     USED["configured"], USED["threads"] = 0, set()
-    res = sweep_mod.sweep(recipe="snake12-paper", preset="tiny", points=2, params=("lam",),
-                          backend="sweep-test-threads", n_jobs=2, progress=False)
+    res = sweep_mod.sweep(
+        recipe="snake12-paper",
+        preset="tiny",
+        points=2,
+        params=("lam",),
+        backend="sweep-test-threads",
+        n_jobs=2,
+        progress=False,
+    )
     # the backend option reached joblib, and jobs ran on its worker threads
     assert USED["configured"] >= 1
     assert USED["threads"] - {threading.main_thread().name}
@@ -110,8 +117,15 @@ def test_operating_point_is_trained_once_and_bad_backend_is_a_config_error(patch
 
 def _fake(p, v):
     m = {"rmse": 1.0 + abs(math.log(v / sweep_mod.OPERATING_POINT[p])), "r2": 0.5, "max_error": 3.0}
-    return {"settings": sweep_mod._settings(p, v), "validation": m, "terminal": m, "joints": None, "test": {}, "frames": {},
-            "seconds": 0.0}
+    return {
+        "settings": sweep_mod._settings(p, v),
+        "validation": m,
+        "terminal": m,
+        "joints": None,
+        "test": {},
+        "frames": {},
+        "seconds": 0.0,
+    }
 
 
 def test_cli_has_the_sweep_options(capsys):

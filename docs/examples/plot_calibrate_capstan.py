@@ -42,9 +42,11 @@ rec = tendon_id.sim.simulate(
     tendon_id.datasets.load_recipe("snake12-noise-only"), "terminal-only", frames=6000, seed=0
 ).recording
 train, test = rec.split((0.7, 0.3), seed=0)
-print(f"{rec.n_frames} frames, {len(rec.trajectories)} trajectories: "
-      f"train {train.n_frames} frames ({len(train.trajectories)} traj.), "
-      f"test {test.n_frames} frames ({len(test.trajectories)} traj.)")
+print(
+    f"{rec.n_frames} frames, {len(rec.trajectories)} trajectories: "
+    f"train {train.n_frames} frames ({len(train.trajectories)} traj.), "
+    f"test {test.n_frames} frames ({len(test.trajectories)} traj.)"
+)
 
 # %%
 # Constrained calibration
@@ -61,15 +63,20 @@ A_true, B_true = np.array(truth["A"]), np.array(truth["B"])
 
 fit_table = pd.DataFrame(
     {
-        "A fitted": model.A_[0], "A true": A_true,
-        "B fitted": model.B_[0], "B true": B_true,
-        "mu0 fitted": model.mu0_[0], "mu0 true": A_true + B_true,
+        "A fitted": model.A_[0],
+        "A true": A_true,
+        "B fitted": model.B_[0],
+        "B true": B_true,
+        "mu0 fitted": model.mu0_[0],
+        "mu0 true": A_true + B_true,
     },
     index=[f"tendon {i}" for i in (1, 2, 3)],
 )
 print(fit_table.round(4))
-print(f"calibration: {model.calibration_['n_eval']} evaluations, "
-      f"{model.calibration_['seconds'] * 1e3:.1f} ms, status {model.calibration_['status']}")
+print(
+    f"calibration: {model.calibration_['n_eval']} evaluations, "
+    f"{model.calibration_['seconds'] * 1e3:.1f} ms, status {model.calibration_['status']}"
+)
 
 # %%
 # :math:`\mu_i(0) = A_i + B_i` is recovered to a fraction of a percent; the split between
@@ -87,8 +94,10 @@ print(f"calibration: {model.calibration_['n_eval']} evaluations, "
 # reaches the target effective sample size. The encoder-quantisation error is marginalised.
 
 post = tendon_id.posterior.sample_posterior(model, train, target_ess=400, seed=0)
-print(f"{post.chain.shape[0]} steps x {post.chain.shape[1]} walkers kept, "
-      f"max tau {post.tau.max():.0f} steps, acceptance {post.acceptance:.2f}, {post.seconds:.1f} s")
+print(
+    f"{post.chain.shape[0]} steps x {post.chain.shape[1]} walkers kept, "
+    f"max tau {post.tau.max():.0f} steps, acceptance {post.acceptance:.2f}, {post.seconds:.1f} s"
+)
 
 summary = pd.DataFrame(post.summary()).T
 print(summary.round(4).astype({"ess": int}))
@@ -145,16 +154,29 @@ fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True, layout="constrained
 for row, j in enumerate((4, 8)):
     k = j - 1
     ax = axes[row, 0]
-    ax.fill_between(t, bands["lo"][frames, k, 0], bands["hi"][frames, k, 0], color="C0", alpha=0.5,
-                    label="95 % posterior band")
+    ax.fill_between(
+        t, bands["lo"][frames, k, 0], bands["hi"][frames, k, 0], color="C0", alpha=0.5, label="95 % posterior band"
+    )
     ax.plot(t, truth_joint[frames, k, 0], color="k", lw=0.8, ls="--", label="simulator truth")
     ax.set_ylabel(f"$T[{j},{j},1]$ [N]")
     ax.set_title(f"joint {j}, tendon 1")
     ax = axes[row, 1]  # the same, relative to the truth
-    ax.fill_between(t, (lo_tot - truth_joint)[frames, k, 0], (hi_tot - truth_joint)[frames, k, 0],
-                    color="C1", alpha=0.3, label="band + input noise")
-    ax.fill_between(t, (bands["lo"] - truth_joint)[frames, k, 0], (bands["hi"] - truth_joint)[frames, k, 0],
-                    color="C0", alpha=0.8, label="95 % posterior band")
+    ax.fill_between(
+        t,
+        (lo_tot - truth_joint)[frames, k, 0],
+        (hi_tot - truth_joint)[frames, k, 0],
+        color="C1",
+        alpha=0.3,
+        label="band + input noise",
+    )
+    ax.fill_between(
+        t,
+        (bands["lo"] - truth_joint)[frames, k, 0],
+        (bands["hi"] - truth_joint)[frames, k, 0],
+        color="C0",
+        alpha=0.8,
+        label="95 % posterior band",
+    )
     ax.axhline(0.0, color="k", lw=0.8, ls="--")
     ax.set_ylabel("minus truth [N]")
     ax.set_title(f"joint {j}, tendon 1, relative to the truth")
@@ -175,13 +197,17 @@ inside = (bands["lo"] <= truth_joint) & (truth_joint <= bands["hi"])
 inside_tot = (lo_tot <= truth_joint) & (truth_joint <= hi_tot)
 for j in (4, 8, 11):
     k = j - 1
-    print(f"joint {j:2d}, tendon 1: posterior band {np.median(width[:, k, 0]):.3f} N wide, covers the truth in "
-          f"{inside[:, k, 0].mean() * 100:3.0f} % of frames; with the input noise "
-          f"{np.median(2 * half[:, k, 0]):.2f} N wide, {inside_tot[:, k, 0].mean() * 100:3.0f} %")
+    print(
+        f"joint {j:2d}, tendon 1: posterior band {np.median(width[:, k, 0]):.3f} N wide, covers the truth in "
+        f"{inside[:, k, 0].mean() * 100:3.0f} % of frames; with the input noise "
+        f"{np.median(2 * half[:, k, 0]):.2f} N wide, {inside_tot[:, k, 0].mean() * 100:3.0f} %"
+    )
 
 score = model.score(test)
-print(f"test: terminal RMSE {score['terminal']['rmse']:.2f} N, "
-      f"intermediate joints 2-11 RMSE {score['joints']['overall']['rmse']:.2f} N")
+print(
+    f"test: terminal RMSE {score['terminal']['rmse']:.2f} N, "
+    f"intermediate joints 2-11 RMSE {score['joints']['overall']['rmse']:.2f} N"
+)
 
 # %%
 # Misspecification

@@ -46,8 +46,10 @@ plt.show()
 # paper's values and only requires :math:`\mu \ge 0` on the wraps it visits.
 
 for i in range(3):
-    print(f"tendon {i + 1}: mu(0) = A + B = {A[i] + B[i]:.2f}, "
-          f"negative beyond {np.degrees(np.arccos(-B[i] / A[i])):.1f} deg, B >= |A|: {B[i] >= abs(A[i])}")
+    print(
+        f"tendon {i + 1}: mu(0) = A + B = {A[i] + B[i]:.2f}, "
+        f"negative beyond {np.degrees(np.arccos(-B[i] / A[i])):.1f} deg, B >= |A|: {B[i] >= abs(A[i])}"
+    )
 
 # %%
 # The capstan ratio through one guide

@@ -37,9 +37,14 @@ print(rec)
 result = analyse(rec, StudySettings(n_chains=32, n_steps=300, thin=10, band_frames=500))
 js = result.to_json()
 print(f"model analysed: {js['model']}")
-print(f"tied:      rank {js['tied']['rank']}/{js['tied']['n_params']}, condition number {js['tied']['condition_number']:.3g}")
-print(f"per-guide: rank {js['per_guide']['rank']}/{js['per_guide']['n_params']} "
-      f"({js['per_guide']['n_unidentifiable']} unidentifiable directions)")
+print(
+    f"tied:      rank {js['tied']['rank']}/{js['tied']['n_params']}, "
+    f"condition number {js['tied']['condition_number']:.3g}"
+)
+print(
+    f"per-guide: rank {js['per_guide']['rank']}/{js['per_guide']['n_params']} "
+    f"({js['per_guide']['n_unidentifiable']} unidentifiable directions)"
+)
 for words in js["per_guide"]["unidentifiable"][:1]:
     print("  ", words)
 
@@ -53,8 +58,10 @@ for words in js["per_guide"]["unidentifiable"][:1]:
 post = js["tied"]["posterior"]
 for i in (1, 2, 3):
     a, m = post[f"A_t{i}"], post[f"mu0_t{i}"]
-    print(f"tendon {i}: sd(A) = {a['sd']:.4f}, sd(A + B) = {m['sd']:.5f}, "
-          f"corr(A, B) = {result.studies['tied'].correlation(i - 1)[0, 1]:.4f}")
+    print(
+        f"tendon {i}: sd(A) = {a['sd']:.4f}, sd(A + B) = {m['sd']:.5f}, "
+        f"corr(A, B) = {result.studies['tied'].correlation(i - 1)[0, 1]:.4f}"
+    )
 posterior_figure(result)
 plt.show()
 
@@ -68,8 +75,10 @@ plt.show()
 
 b = js["bands"]
 print(f"mean band: tied {b['tied_width_mean']:.2f} N, per-guide {b['per_guide_width_mean']:.2f} N")
-print(f"truth inside the tied band: {100 * b['truth_coverage']:.1f} % of frames (worst joint "
-      f"{100 * b['truth_coverage_min_joint']:.1f} %)")
+print(
+    f"truth inside the tied band: {100 * b['truth_coverage']:.1f} % of frames (worst joint "
+    f"{100 * b['truth_coverage_min_joint']:.1f} %)"
+)
 band_width_figure(result)
 plt.show()
 
@@ -84,11 +93,12 @@ adv = js["advice"]
 widths = {c["joint"]: c["band_width_mean"] for c in adv["check"]}
 print(f"instrument joint {adv['instrument_joint']}; excite joints {adv['excite_joints']}")
 fig, ax = plt.subplots(figsize=(6, 3))
-ax.bar(list(widths), list(widths.values()),
-       color=["C3" if j == adv["instrument_joint"] else "C0" for j in widths])
+ax.bar(list(widths), list(widths.values()), color=["C3" if j == adv["instrument_joint"] else "C0" for j in widths])
 ax.set_xlabel("joint instrumented")
 ax.set_ylabel("mean per-guide band [N]")
 ax.set_title("red: the D-optimal choice")
 plt.show()
-print(f"chosen {widths[adv['instrument_joint']]:.2f} N, median alternative "
-      f"{np.median([w for j, w in widths.items() if j != adv['instrument_joint']]):.2f} N")
+print(
+    f"chosen {widths[adv['instrument_joint']]:.2f} N, median alternative "
+    f"{np.median([w for j, w in widths.items() if j != adv['instrument_joint']]):.2f} N"
+)

@@ -41,14 +41,17 @@ print("stage 1 epochs:", len(pgchtc.history_["stage1"]), " stage 2 epochs:", len
 for protocol, rec in split.test.items():
     for name, model in (("capstan-nonsmooth", baseline), ("PG-CHTC", pgchtc)):
         s = model.score(rec)
-        print(f"{protocol:14s} {name:18s} terminal RMSE {s['terminal']['rmse']:6.1f} N   "
-              f"intermediate joints {s['joints']['overall']['rmse']:6.1f} N")
+        print(
+            f"{protocol:14s} {name:18s} terminal RMSE {s['terminal']['rmse']:6.1f} N   "
+            f"intermediate joints {s['joints']['overall']['rmse']:6.1f} N"
+        )
 
 # %%
 # Error at every joint: the cascade's shared law keeps the intermediate estimates close to
 # the truth although it never saw them.
-fig = per_joint_rmse_figure({"capstan-nonsmooth": baseline.score(split.test["posterior-6"]),
-                             "PG-CHTC": pgchtc.score(split.test["posterior-6"])})
+fig = per_joint_rmse_figure(
+    {"capstan-nonsmooth": baseline.score(split.test["posterior-6"]), "PG-CHTC": pgchtc.score(split.test["posterior-6"])}
+)
 plt.show()
 
 # %%

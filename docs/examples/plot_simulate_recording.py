@@ -106,7 +106,9 @@ colors = plt.cm.viridis(np.linspace(0, 1, n - 1))
 for k in range(1, n):
     ax.plot(t, np.degrees(result.wrap[rows, k - 1]), color=colors[k - 1], label=f"guide {k}")
 ax.axhline(np.degrees(geometry.alpha_c), color="gray", ls=":", lw=1)
-ax.text(t[-1], np.degrees(geometry.alpha_c), r"clearance $\alpha_c$ ", ha="right", va="bottom", fontsize=8, color="gray")
+ax.text(
+    t[-1], np.degrees(geometry.alpha_c), r"clearance $\alpha_c$ ", ha="right", va="bottom", fontsize=8, color="gray"
+)
 ax.set_xlabel("time [s]")
 ax.set_ylabel("backbone wrap [deg]")
 ax.set_title("backbone wrap per guide")
@@ -116,8 +118,7 @@ ax = axes[1]
 for k in (2, 5, 10):
     for i in range(3):
         diff = np.degrees(exact[:, k - 1, n - 1, i] - result.wrap[rows, k - 1])
-        ax.plot(t, diff, color=f"C{i}", ls={2: "-", 5: "--", 10: ":"}[k], lw=1.2,
-                label=f"guide {k}, tendon {i + 1}")
+        ax.plot(t, diff, color=f"C{i}", ls={2: "-", 5: "--", 10: ":"}[k], lw=1.2, label=f"guide {k}, tendon {i + 1}")
 ax.set_xlabel("time [s]")
 ax.set_ylabel("exact minus backbone wrap [deg]")
 ax.set_title("per-tendon wrap of set 12")

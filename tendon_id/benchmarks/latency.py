@@ -28,9 +28,11 @@ from learners.cascade import Cascade, normalised_geometry, normalised_tensions
 from learners.presets import preset as get_preset
 from learners.training import fit_feature_norm
 from tendon_id.datasets import load_recipe
+from tendon_id.geometry import sin_q
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
-from tendon_id.zoo.learned import PGCHTC, _sin_q
+from tendon_id.zoo.learned import PGCHTC
+from tendon_id.zoo.registry import make
 
 
 def untrained_model(recording, preset: str, seed: int = 0) -> PGCHTC:
@@ -40,7 +42,7 @@ def untrained_model(recording, preset: str, seed: int = 0) -> PGCHTC:
     inp = TransmissionInputs.from_recordings(recording)
     cfg = get_preset(preset).unit
     cascade = Cascade(inp.n_modules - 1, cfg)
-    fit_feature_norm(cascade, _sin_q(inp.angles), inp.wrap, np.concatenate([inp.actuator.reshape(-1, 3), inp.terminal]))
+    fit_feature_norm(cascade, sin_q(inp.angles), inp.wrap, np.concatenate([inp.actuator.reshape(-1, 3), inp.terminal]))
     with torch.no_grad():
         for u in cascade.units:
             if u.residual is not None:
@@ -63,7 +65,9 @@ def _naive_step(cascade: Cascade, history: list, sin_q, alpha, log_act) -> torch
     for g in range(cascade.n_guides):
         unit = cascade.unit(g)
         for j in range(g + 1, n):
-            x = torch.cat([normalised_geometry(sin_q[g], alpha[g], mean, std), normalised_tensions(log_t[j], mean, std)])
+            x = torch.cat(
+                [normalised_geometry(sin_q[g], alpha[g], mean, std), normalised_tensions(log_t[j], mean, std)]
+            )
             history[g][j].append(x)
             del history[g][j][:-span]
             lr = torch.log(unit.backbone(x[None]))[0]
@@ -87,7 +91,7 @@ def _stream(stream, angles: np.ndarray, actuator: np.ndarray) -> tuple[np.ndarra
 
 def float64_batch(model: PGCHTC, rec) -> np.ndarray:
     """Batch inference of ``rec`` (one trajectory) in float64: how far float32 rounding alone moves it."""
-    cin, _, _ = model._cascade_inputs([rec])
+    cin, _, _ = model.cascade_inputs([rec])
     c64 = copy.deepcopy(model.cascade_).double()
     with torch.no_grad():
         log_t, _ = c64(cin, torch.arange(model.n_modules_))  # the inputs are float64 already
@@ -99,8 +103,6 @@ def float64_batch(model: PGCHTC, rec) -> np.ndarray:
 def trained_agreement(recipe: str, seed: int = 0) -> dict:
     """Streaming against batch inference, both engines, for a ``fast`` model trained on ``posterior-3``,
     over a held-out planned path (maximum relative difference)."""
-    from tendon_id.zoo.registry import make
-
     r = load_recipe(recipe)
     train = simulate(r, "posterior-3", frames=4000, seed=seed).recording
     test = simulate(r, "planned-paths", frames=320, seed=seed + 1).recording
@@ -116,9 +118,20 @@ def trained_agreement(recipe: str, seed: int = 0) -> dict:
     return out
 
 
-def latency(*, recipe: str = "snake12-paper", preset: str = "paper", frames: int = 300, naive_frames: int = 15,
-            seed: int = 0, trained: bool = True, progress: bool | None = None) -> dict:
-    """Median per-frame latency of streaming (default and torch engines) against the naive implementation, and agreement with batch."""
+def latency(
+    *,
+    recipe: str = "snake12-paper",
+    preset: str = "paper",
+    frames: int = 300,
+    naive_frames: int = 15,
+    seed: int = 0,
+    trained: bool = True,
+    progress: bool | None = None,
+) -> dict:
+    """Median per-frame latency of streaming (default and torch engines) against the naive implementation.
+
+    Also reports the agreement of streaming with batch inference.
+    """
     t0 = time.perf_counter()
     torch.set_num_threads(max(1, torch.get_num_threads()))
     rec = simulate(load_recipe(recipe), "planned-paths", frames=max(frames, 320), seed=seed).recording
@@ -147,7 +160,7 @@ def latency(*, recipe: str = "snake12-paper", preset: str = "paper", frames: int
     span = cfg.n_layers * (cfg.window - 1) + 1 if cfg.temporal_residual else 1
     timed = range(min(span, first.n_frames - 1), min(span + naive_frames, first.n_frames))
     with torch.inference_mode():
-        sq, al = _sin_q(angles), TransmissionInputs.from_recordings(first, model.geometry_).wrap
+        sq, al = sin_q(angles), TransmissionInputs.from_recordings(first, model.geometry_).wrap
         for t in range(timed.stop):
             s = time.perf_counter()
             out = _naive_step(model.cascade_, history, f32(sq[t]), f32(al[t]), f32(np.log(act[t])))
@@ -156,35 +169,64 @@ def latency(*, recipe: str = "snake12-paper", preset: str = "paper", frames: int
                 naive_out.append(np.exp(out.numpy()))
     naive_ms = float(np.median(naive_times) * 1e3)
     agreement = trained_agreement(recipe, seed) if trained else None
-    return {"benchmark": "latency", "n_modules": n, "preset": preset, "engine": default.engine_name,
-            "streaming_ms_median": stream_ms, "naive_ms_median": naive_ms, "speedup": naive_ms / stream_ms,
-            "max_rel_diff_vs_batch": rel(streamed, batch), "torch_streaming_ms_median": torch_ms,
-            "speedup_vs_torch": torch_ms / stream_ms, "torch_max_rel_diff_vs_batch": rel(streamed_torch, batch),
-            "max_rel_diff_vs_float64": rel(streamed, exact), "batch_max_rel_diff_vs_float64": rel(batch, exact),
-            "naive_max_rel_diff_vs_batch": rel(np.stack(naive_out)[:, 1:], batch[timed.start:timed.stop, 1:]),
-            "trained_fast": agreement, "native_threads": native_threads, "native_one_thread_ms_median": one_ms,
-            "native_threads_same_bits": same_bits,
-            "frames": first.n_frames, "naive_frames": len(naive_times), "threads": torch.get_num_threads(), "rows": [],
-            "seconds": time.perf_counter() - t0}
+    return {
+        "benchmark": "latency",
+        "n_modules": n,
+        "preset": preset,
+        "engine": default.engine_name,
+        "streaming_ms_median": stream_ms,
+        "naive_ms_median": naive_ms,
+        "speedup": naive_ms / stream_ms,
+        "max_rel_diff_vs_batch": rel(streamed, batch),
+        "torch_streaming_ms_median": torch_ms,
+        "speedup_vs_torch": torch_ms / stream_ms,
+        "torch_max_rel_diff_vs_batch": rel(streamed_torch, batch),
+        "max_rel_diff_vs_float64": rel(streamed, exact),
+        "batch_max_rel_diff_vs_float64": rel(batch, exact),
+        "naive_max_rel_diff_vs_batch": rel(np.stack(naive_out)[:, 1:], batch[timed.start : timed.stop, 1:]),
+        "trained_fast": agreement,
+        "native_threads": native_threads,
+        "native_one_thread_ms_median": one_ms,
+        "native_threads_same_bits": same_bits,
+        "frames": first.n_frames,
+        "naive_frames": len(naive_times),
+        "threads": torch.get_num_threads(),
+        "rows": [],
+        "seconds": time.perf_counter() - t0,
+    }
 
 
 def format_latency(r: dict) -> str:
     threads = f" on {r['native_threads']} threads" if r.get("native_threads") else ""
-    lines = [f"latency (N = {r['n_modules']}, preset {r['preset']}, {r['threads']} threads, median of {r['frames']} frames):",
-             f"  streaming, {r['engine']} engine{threads}: {r['streaming_ms_median']:.2f} ms/frame; max relative difference from batch "
-             f"{r['max_rel_diff_vs_batch']:.2e} (from float64 {r['max_rel_diff_vs_float64']:.2e})"]
+    lines = [
+        f"latency (N = {r['n_modules']}, preset {r['preset']}, {r['threads']} threads, "
+        f"median of {r['frames']} frames):",
+        f"  streaming, {r['engine']} engine{threads}: {r['streaming_ms_median']:.2f} ms/frame; "
+        "max relative difference from batch "
+        f"{r['max_rel_diff_vs_batch']:.2e} (from float64 {r['max_rel_diff_vs_float64']:.2e})",
+    ]
     if r.get("native_one_thread_ms_median"):
-        lines.append(f"  streaming, native engine on 1 thread: {r['native_one_thread_ms_median']:.2f} ms/frame "
-                     f"({r['native_one_thread_ms_median'] / r['streaming_ms_median']:.2f}x slower; "
-                     f"{'same bits' if r['native_threads_same_bits'] else 'DIFFERENT bits'})")
+        lines.append(
+            f"  streaming, native engine on 1 thread: {r['native_one_thread_ms_median']:.2f} ms/frame "
+            f"({r['native_one_thread_ms_median'] / r['streaming_ms_median']:.2f}x slower; "
+            f"{'same bits' if r['native_threads_same_bits'] else 'DIFFERENT bits'})"
+        )
     if r["engine"] != "torch":
-        lines.append(f"  streaming, torch engine: {r['torch_streaming_ms_median']:.2f} ms/frame ({r['speedup_vs_torch']:.1f}x slower); "
-                     f"max relative difference from batch {r['torch_max_rel_diff_vs_batch']:.2e}")
-    lines.append(f"  naive per-frame: {r['naive_ms_median']:.1f} ms/frame -> streaming is {r['speedup']:.1f}x faster; "
-                 f"max relative difference from batch {r['naive_max_rel_diff_vs_batch']:.2e}")
+        lines.append(
+            f"  streaming, torch engine: {r['torch_streaming_ms_median']:.2f} ms/frame "
+            f"({r['speedup_vs_torch']:.1f}x slower); "
+            f"max relative difference from batch {r['torch_max_rel_diff_vs_batch']:.2e}"
+        )
+    lines.append(
+        f"  naive per-frame: {r['naive_ms_median']:.1f} ms/frame -> streaming is {r['speedup']:.1f}x faster; "
+        f"max relative difference from batch {r['naive_max_rel_diff_vs_batch']:.2e}"
+    )
     lines.append(f"  batch inference (float32 units) is {r['batch_max_rel_diff_vs_float64']:.2e} from float64")
     a = r.get("trained_fast")
     if a:
-        lines.append(f"  trained fast model, held-out planned path: streaming differs from batch by {a['default']:.2e} ({r['engine']} engine), "
-                     f"{a['torch']:.2e} (torch engine); batch is {a['batch_vs_float64']:.2e} from float64")
+        lines.append(
+            f"  trained fast model, held-out planned path: streaming differs from batch by {a['default']:.2e} "
+            f"({r['engine']} engine), "
+            f"{a['torch']:.2e} (torch engine); batch is {a['batch_vs_float64']:.2e} from float64"
+        )
     return "\n".join(lines)

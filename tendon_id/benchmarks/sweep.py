@@ -48,11 +48,13 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
+from joblib import Parallel, delayed
 
 from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
 from tendon_id.errors import ConfigError
 from tendon_id.metrics import frame_weighted, tendon_metrics
 from tendon_id.progress import progress_bar
+from tendon_id.zoo.registry import make
 
 #: The operating point selected in the paper (Section IV-B); ``window`` is ``h`` [frames].
 OPERATING_POINT = {"lam": 1.0, "lam_s": 0.1, "eta_w": 2.0, "window": 20}
@@ -126,8 +128,6 @@ def sweep_job(recipe: str, seed: int, preset: str, parameter: str, value) -> dic
         ``{"settings", "validation": M, "terminal": M (test, frame-weighted), "joints": M | None,
         "test": {protocol: M}, "frames": {protocol: int}, "seconds"}``.
     """
-    from tendon_id.zoo import make
-
     t0 = time.perf_counter()
     settings = _settings(parameter, value)
     split = paper_split(recipe, seed, progress=False)
@@ -138,10 +138,15 @@ def sweep_job(recipe: str, seed: int, preset: str, parameter: str, value) -> dic
         test[p], joints[p] = _score_test(model, split.test[p])
         frames[p] = split.test[p].n_frames
     w = [frames[p] for p in TEST_PROTOCOLS]
-    return {"settings": settings, "validation": validation,
-            "terminal": frame_weighted([test[p] for p in TEST_PROTOCOLS], w),
-            "joints": frame_weighted([joints[p] for p in TEST_PROTOCOLS], w) if all(joints.values()) else None,
-            "test": test, "frames": frames, "seconds": time.perf_counter() - t0}
+    return {
+        "settings": settings,
+        "validation": validation,
+        "terminal": frame_weighted([test[p] for p in TEST_PROTOCOLS], w),
+        "joints": frame_weighted([joints[p] for p in TEST_PROTOCOLS], w) if all(joints.values()) else None,
+        "test": test,
+        "frames": frames,
+        "seconds": time.perf_counter() - t0,
+    }
 
 
 def _ratio(values: Sequence[float]) -> float:
@@ -149,9 +154,17 @@ def _ratio(values: Sequence[float]) -> float:
     return float(max(values) / best) if best > 0 else float("inf")
 
 
-def sweep(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0, points: int = 5,
-          params: Sequence[str] = ("lam", "lam_s", "eta_w", "window"), backend: str | None = "loky", n_jobs: int = 1,
-          progress: bool | None = None) -> dict:
+def sweep(
+    *,
+    recipe: str = "snake12-paper",
+    preset: str = "fast",
+    seed: int = 0,
+    points: int = 5,
+    params: Sequence[str] = ("lam", "lam_s", "eta_w", "window"),
+    backend: str | None = "loky",
+    n_jobs: int = 1,
+    progress: bool | None = None,
+) -> dict:
     """The one-at-a-time sensitivity sweep of Section IV-B (see the module docstring).
 
     Parameters
@@ -182,8 +195,6 @@ def sweep(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0,
         "validation_rmse", "joints": M | None, ...}], "ratios": {parameter: worst / best
         validation RMSE}, "test_ratios", "paper_ratios", "operating_point", "grids", "seconds"}``.
     """
-    from joblib import Parallel, delayed
-
     t0 = time.perf_counter()
     params = tuple(params)
     if not params:
@@ -200,7 +211,9 @@ def sweep(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0,
             jobs.setdefault(tuple(sorted(_settings(p, v).items())), (p, v))
     keys = list(jobs)
     try:
-        parallel = Parallel(n_jobs=int(n_jobs), return_as="generator", **({"backend": backend} if backend is not None else {}))
+        parallel = Parallel(
+            n_jobs=int(n_jobs), return_as="generator", **({"backend": backend} if backend is not None else {})
+        )
     except ValueError as exc:  # an unknown or unregistered backend name
         raise ConfigError(f"joblib backend {backend!r}: {exc}") from None
     out = parallel(delayed(sweep_job)(recipe, seed, preset, p, v) for p, v in jobs.values())
@@ -212,20 +225,46 @@ def sweep(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0,
         for v in grids[p]:
             res = results[tuple(sorted(_settings(p, v).items()))]
             group.append(res)
-            rows.append({"method": "pg-chtc", "protocol": "overall", "parameter": p, "value": v,
-                         "terminal": res["terminal"], "validation_rmse": res["validation"]["rmse"],
-                         "validation": res["validation"], "joints": res["joints"], "test": res["test"],
-                         "settings": res["settings"], "operating_point": v == OPERATING_POINT[p],
-                         "seconds": res["seconds"]})
+            rows.append(
+                {
+                    "method": "pg-chtc",
+                    "protocol": "overall",
+                    "parameter": p,
+                    "value": v,
+                    "terminal": res["terminal"],
+                    "validation_rmse": res["validation"]["rmse"],
+                    "validation": res["validation"],
+                    "joints": res["joints"],
+                    "test": res["test"],
+                    "settings": res["settings"],
+                    "operating_point": v == OPERATING_POINT[p],
+                    "seconds": res["seconds"],
+                }
+            )
         ratios[p] = _ratio([g["validation"]["rmse"] for g in group])
         test_ratios[p] = _ratio([g["terminal"]["rmse"] for g in group])
-    return {"benchmark": "sweep", "preset": preset, "recipe": recipe, "seed": seed, "rows": rows,
-            "ratios": ratios, "test_ratios": test_ratios, "paper_ratios": {p: PAPER_RATIOS[p] for p in params},
-            "operating_point": dict(OPERATING_POINT), "grids": grids, "points": int(points),
-            "backend": backend, "n_jobs": int(n_jobs), "trained": len(keys),
-            "frames": {"train": split.train.n_frames, "val": split.val.n_frames,
-                       **{p: split.test[p].n_frames for p in TEST_PROTOCOLS}},
-            "seconds": time.perf_counter() - t0}
+    return {
+        "benchmark": "sweep",
+        "preset": preset,
+        "recipe": recipe,
+        "seed": seed,
+        "rows": rows,
+        "ratios": ratios,
+        "test_ratios": test_ratios,
+        "paper_ratios": {p: PAPER_RATIOS[p] for p in params},
+        "operating_point": dict(OPERATING_POINT),
+        "grids": grids,
+        "points": int(points),
+        "backend": backend,
+        "n_jobs": int(n_jobs),
+        "trained": len(keys),
+        "frames": {
+            "train": split.train.n_frames,
+            "val": split.val.n_frames,
+            **{p: split.test[p].n_frames for p in TEST_PROTOCOLS},
+        },
+        "seconds": time.perf_counter() - t0,
+    }
 
 
 def _fmt_value(v) -> str:
@@ -234,21 +273,34 @@ def _fmt_value(v) -> str:
 
 def format_sweep(result: dict) -> str:
     """The sweep as an aligned text table, then the worst-to-best ratios next to the paper's."""
-    head = f"{'parameter':10s} {'value':>8s}  {'val RMSE':>9s} | {'test RMSE':>9s} {'R2':>7s} {'MaxErr':>8s} | {'joints RMSE':>11s}"
-    lines = [f"sweep ({result.get('recipe', '')}, preset {result['preset']}, {result.get('trained', len(result['rows']))} models "
-             f"trained on train, selected on val, tested on held-out test; {result['seconds']:.1f} s)", head, "-" * len(head)]
+    head = (
+        f"{'parameter':10s} {'value':>8s}  {'val RMSE':>9s} | "
+        f"{'test RMSE':>9s} {'R2':>7s} {'MaxErr':>8s} | {'joints RMSE':>11s}"
+    )
+    lines = [
+        f"sweep ({result.get('recipe', '')}, preset {result['preset']}, "
+        f"{result.get('trained', len(result['rows']))} models "
+        f"trained on train, selected on val, tested on held-out test; {result['seconds']:.1f} s)",
+        head,
+        "-" * len(head),
+    ]
     for r in result["rows"]:
         t, j = r["terminal"], r["joints"]
         mark = "*" if r.get("operating_point") else " "
         js = f"{j['rmse']:11.3f}" if j else f"{'-':>11s}"
-        lines.append(f"{LABELS.get(r['parameter'], r['parameter']):10s} {_fmt_value(r['value']):>8s}{mark} {r['validation_rmse']:9.3f} | "
-                     f"{t['rmse']:9.3f} {t['r2']:7.3f} {t['max_error']:8.3f} | {js}")
+        lines.append(
+            f"{LABELS.get(r['parameter'], r['parameter']):10s} {_fmt_value(r['value']):>8s}{mark} "
+            f"{r['validation_rmse']:9.3f} | "
+            f"{t['rmse']:9.3f} {t['r2']:7.3f} {t['max_error']:8.3f} | {js}"
+        )
     lines.append("* operating point")
     lines.append("")
     lines.append(f"{'worst/best':10s} {'val':>8s} {'test':>8s} {'paper':>8s}")
     for p, ratio in result["ratios"].items():
         test = result.get("test_ratios", {}).get(p)
         paper = result.get("paper_ratios", {}).get(p)
-        lines.append(f"{LABELS.get(p, p):10s} {ratio:8.3f} {test if test is not None else float('nan'):8.3f} "
-                     f"{paper if paper is not None else float('nan'):8.2f}")
+        lines.append(
+            f"{LABELS.get(p, p):10s} {ratio:8.3f} {test if test is not None else float('nan'):8.3f} "
+            f"{paper if paper is not None else float('nan'):8.2f}"
+        )
     return "\n".join(lines)

@@ -20,8 +20,23 @@ from tendon_id.progress import progress_bar
 from tendon_id.zoo import make
 
 #: Rows of Table I (single passage) and Table II (cascade), in the paper's order.
-TABLE1_METHODS = ("proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth", "transformer", "lstm", "mlp", "pg-chtc")
-TABLE2_METHODS = ("proximal", "capstan-nonsmooth", "pg-chtc w/o physics regularizer", "pg-chtc w/o temporal residual", "pg-chtc")
+TABLE1_METHODS = (
+    "proximal",
+    "capstan-simple",
+    "capstan-contact",
+    "capstan-nonsmooth",
+    "transformer",
+    "lstm",
+    "mlp",
+    "pg-chtc",
+)
+TABLE2_METHODS = (
+    "proximal",
+    "capstan-nonsmooth",
+    "pg-chtc w/o physics regularizer",
+    "pg-chtc w/o temporal residual",
+    "pg-chtc",
+)
 METRIC_KEYS = ("rmse", "r2", "max_error")
 
 #: Table rows that are not plain zoo names: (zoo name, settings).
@@ -58,18 +73,40 @@ def _aggregate(per_split: list[list[dict]], repeats: int) -> list[dict]:
         group = [split[k] for split in per_split]
         term, term_sd = _mean_sd([g["terminal"] for g in group])
         joints, joints_sd = _mean_sd([g["joints"] for g in group])
-        rows.append({"method": first["method"], "protocol": first["protocol"], "terminal": term, "joints": joints,
-                     "terminal_sd": term_sd, "joints_sd": joints_sd, "repeats": repeats})
+        rows.append(
+            {
+                "method": first["method"],
+                "protocol": first["protocol"],
+                "terminal": term,
+                "joints": joints,
+                "terminal_sd": term_sd,
+                "joints_sd": joints_sd,
+                "repeats": repeats,
+            }
+        )
     return rows
 
 
 def _row(method: str, protocol: str, score: dict) -> dict:
     joints = score.get("joints")
-    return {"method": method, "protocol": protocol, "terminal": score["terminal"], "joints": joints["overall"] if joints else None}
+    return {
+        "method": method,
+        "protocol": protocol,
+        "terminal": score["terminal"],
+        "joints": joints["overall"] if joints else None,
+    }
 
 
-def table1(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0, repeats: int = 5,
-           methods: Sequence[str] = TABLE1_METHODS, factory: Callable | None = None, progress: bool | None = None) -> dict:
+def table1(
+    *,
+    recipe: str = "snake12-paper",
+    preset: str = "fast",
+    seed: int = 0,
+    repeats: int = 5,
+    methods: Sequence[str] = TABLE1_METHODS,
+    factory: Callable | None = None,
+    progress: bool | None = None,
+) -> dict:
     """Single-passage, unit-level test (paper Table I): calibrate on 70 % of trajectories, test on the rest."""
     t0 = time.perf_counter()
     factory = factory or model_factory(preset, seed)
@@ -78,12 +115,26 @@ def table1(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0
     for s in progress_bar(range(seed, seed + repeats), desc="table1", enable=progress):
         train, test = rec.split((0.7, 0.3), seed=s)
         per_split.append([_row(m, "single-passage", factory(m).fit(train).score(test)) for m in methods])
-    return {"benchmark": "table1", "preset": preset, "recipe": recipe, "rows": _aggregate(per_split, repeats),
-            "seconds": time.perf_counter() - t0, "frames": {"train": train.n_frames, "test": test.n_frames}}
+    return {
+        "benchmark": "table1",
+        "preset": preset,
+        "recipe": recipe,
+        "rows": _aggregate(per_split, repeats),
+        "seconds": time.perf_counter() - t0,
+        "frames": {"train": train.n_frames, "test": test.n_frames},
+    }
 
 
-def table2(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0, repeats: int = 3,
-           methods: Sequence[str] = TABLE2_METHODS, factory: Callable | None = None, progress: bool | None = None) -> dict:
+def table2(
+    *,
+    recipe: str = "snake12-paper",
+    preset: str = "fast",
+    seed: int = 0,
+    repeats: int = 3,
+    methods: Sequence[str] = TABLE2_METHODS,
+    factory: Callable | None = None,
+    progress: bool | None = None,
+) -> dict:
     """Cascade, open-loop logged-data evaluation (paper Table II), per protocol and frame-weighted overall.
 
     Analytic baselines are calibrated on the training and validation trajectories only and
@@ -102,10 +153,48 @@ def table2(*, recipe: str = "snake12-paper", preset: str = "fast", seed: int = 0
             frames = [split.test[p].n_frames for p in TEST_PROTOCOLS]
             rows += [_row(method, p, scores[p]) for p in TEST_PROTOCOLS]
             joint_rows = [scores[p]["joints"]["overall"] if scores[p]["joints"] else None for p in TEST_PROTOCOLS]
-            rows.append({"method": method, "protocol": "overall",
-                         "terminal": frame_weighted([scores[p]["terminal"] for p in TEST_PROTOCOLS], frames),
-                         "joints": frame_weighted(joint_rows, frames) if all(joint_rows) else None})
+            rows.append(
+                {
+                    "method": method,
+                    "protocol": "overall",
+                    "terminal": frame_weighted([scores[p]["terminal"] for p in TEST_PROTOCOLS], frames),
+                    "joints": frame_weighted(joint_rows, frames) if all(joint_rows) else None,
+                }
+            )
         per_split.append(rows)
-    return {"benchmark": "table2", "preset": preset, "recipe": recipe, "rows": _aggregate(per_split, repeats),
-            "seconds": time.perf_counter() - t0,
-            "frames": {"train": split.train.n_frames, "val": split.val.n_frames, **{p: split.test[p].n_frames for p in TEST_PROTOCOLS}}}
+    return {
+        "benchmark": "table2",
+        "preset": preset,
+        "recipe": recipe,
+        "rows": _aggregate(per_split, repeats),
+        "seconds": time.perf_counter() - t0,
+        "frames": {
+            "train": split.train.n_frames,
+            "val": split.val.n_frames,
+            **{p: split.test[p].n_frames for p in TEST_PROTOCOLS},
+        },
+    }
+
+
+def format_rows(result: dict) -> str:
+    """Table I / II rows as an aligned text table (terminal and intermediate joints)."""
+    head = (
+        f"{'method':22s} {'protocol':15s} {'RMSE [N]':>9s} {'+-sd':>6s} {'R2':>7s} {'MaxErr':>8s} | "
+        f"{'joints RMSE':>11s} {'R2':>7s}"
+    )
+    reps = result["rows"][0].get("repeats", 1) if result["rows"] else 1
+    lines = [
+        f"{result['benchmark']} ({result.get('recipe', '')}, preset {result['preset']}, mean over {reps} splits, "
+        f"{result['seconds']:.1f} s)",
+        head,
+        "-" * len(head),
+    ]
+    for r in result["rows"]:
+        t, j = r["terminal"], r["joints"]
+        sd = (r.get("terminal_sd") or {}).get("rmse", 0.0)
+        js = f"{j['rmse']:11.3f} {j['r2']:7.3f}" if j else f"{'-':>11s} {'-':>7s}"
+        lines.append(
+            f"{r['method']:22s} {r['protocol']:15s} {t['rmse']:9.3f} {sd:6.2f} {t['r2']:7.3f} "
+            f"{t['max_error']:8.3f} | {js}"
+        )
+    return "\n".join(lines)

@@ -8,7 +8,8 @@ weak prior that keeps the determinant finite in the null space (``s`` =
 :data:`~tendon_id.identifiability.sampler.FLAT_SCALE`; Atkinson, Donev & Tobias 2007,
 "Optimum experimental designs", ch. 10).  The expected shrinkage of the band is
 the linearised one: the mean over frames and intermediate joints of
-``sqrt(x_l^T (F + F_0)^-1 x_l)`` before and after.
+``sqrt(x_l^T (F + F_0)^-1 x_l)`` before and after.  Where intermediate truth exists,
+:func:`measure_advice` checks the advice by adding each joint's (noisy) label and sampling again.
 """
 
 from __future__ import annotations
@@ -16,18 +17,22 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.identifiability.problem import LawProblem
+from tendon_id.identifiability.band import ambiguity_band
+from tendon_id.identifiability.problem import IdentifiabilityProblem
 from tendon_id.identifiability.sampler import FLAT_SCALE
+from tendon_id.identifiability.settings import StudySettings
+from tendon_id.identifiability.study import TyingStudy
+from tendon_id.problem import constrained_lstsq, delta_method_weight
 
 
-def _joint_weight(problem: LawProblem, joint: int, tendon: int, theta: NDArray) -> NDArray:
+def _joint_weight(problem: IdentifiabilityProblem, joint: int, tendon: int, theta: NDArray) -> NDArray:
     """Delta-method weights [N^2] of a label at ``joint``, its tension predicted by ``theta``."""
     t1 = problem.inputs.actuator[:, joint - 1, tendon]
     tj = t1 * np.exp(-problem.joint_design(joint) @ theta)
-    return 1.0 / (1.0 / t1**2 + 1.0 / tj**2)
+    return delta_method_weight(t1, tj)
 
 
-def _linear_band_sd(problem: LawProblem, cov: NDArray, frames: NDArray) -> float:
+def _linear_band_sd(problem: IdentifiabilityProblem, cov: NDArray, frames: NDArray) -> float:
     """Mean linearised sd of ``ln T[j, j]`` over ``frames`` and joints ``2..N-1``."""
     sds = []
     for j in range(2, problem.n_guides + 1):
@@ -36,12 +41,14 @@ def _linear_band_sd(problem: LawProblem, cov: NDArray, frames: NDArray) -> float
     return float(np.mean(sds))
 
 
-def instrument_scores(problem: LawProblem, thetas: list[NDArray], sigmas: list[float], frames: NDArray) -> list[dict]:
+def instrument_scores(
+    problem: IdentifiabilityProblem, thetas: list[NDArray], sigmas: list[float], frames: NDArray
+) -> list[dict]:
     """D-criterion and expected band shrinkage for instrumenting each intermediate joint.
 
     Parameters
     ----------
-    problem : LawProblem
+    problem : IdentifiabilityProblem
         Usually the per-guide problem (the tied law is already determined).
     thetas, sigmas : per tendon
         Fitted law and residual noise [N].
@@ -82,3 +89,53 @@ def excite_joints(per_guide_sd_mu0: NDArray, max_joints: int = 3) -> list[int]:
     if free:
         return free
     return [int(k) + 1 for k in np.argsort(-sd)[:max_joints]]
+
+
+def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings: StudySettings) -> list[dict]:
+    """Measured band after adding each intermediate joint's label (truth plus load-cell noise).
+
+    For each candidate joint ``j`` the per-guide law is sampled again with the extra
+    labels ``ln T[1, j] - ln(T_true[j, j] + noise)``, and the mean band width over the
+    intermediate joints is measured with the same sampler and frames as the report.
+
+    Parameters
+    ----------
+    study : TyingStudy
+        The per-guide study (its problem, and residual noise per tendon [N]).
+    truth : ndarray, shape (T, N, 3)
+        Joint-side truth [N]; read here only, never by a fit of the study itself.
+    frames : ndarray of int
+        Frames the band is evaluated on.
+    settings : StudySettings
+        Sampler settings and seed.
+
+    Returns
+    -------
+    list of dict
+        ``{"joint", "band_width_mean"}`` [N] per joint ``2..N-1``.
+    """
+    problem = study.problem
+    rng = np.random.default_rng(settings.seed + 1000)
+    layout = problem.layout
+    C, d = layout.constraints()
+    out = []
+    for j in range(2, problem.n_guides + 1):
+        Xj = problem.joint_design(j)
+        draws = []
+        for i in range(3):
+            t1 = problem.inputs.actuator[:, j - 1, i]
+            label = truth[:, j - 1, i] + rng.normal(0.0, problem.noise_n, size=len(t1))
+            yj = np.log(t1) - np.log(np.maximum(label, 1e-6))
+            wj = delta_method_weight(t1, label)
+            sigma = study.sigma[i]
+            M, b, _ = problem.quadratic(i, sigma)
+            M = M + problem.precision(i, sigma, design=Xj, weight=wj)
+            b = b + Xj.T @ (wj * yj) / sigma**2
+            scale = np.sqrt(np.r_[problem.weight[:, i], wj] / np.mean(problem.weight[:, i]))
+            X_all = np.vstack([problem.design, Xj]) * scale[:, None]
+            y_all = np.r_[problem.log_drop[:, i], yj] * scale
+            theta = constrained_lstsq(X_all, y_all, layout, 1e-10).x
+            draws.append(settings.sample(M, b, C, d, theta, layout, settings.seed + i))
+        band = ambiguity_band(problem, draws, frames, seed=settings.seed)
+        out.append({"joint": j, "band_width_mean": band.mean_width()})
+    return out

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.identifiability.problem import LawProblem
+from tendon_id.problem import LawProblem
 
 
 @dataclass
@@ -66,8 +66,16 @@ def band_frames(n_frames: int, max_frames: int, seed: int) -> NDArray[np.int64]:
 BAND_DRAWS = 500
 
 
-def ambiguity_band(problem: LawProblem, draws: list[NDArray], frames: NDArray, *, noise_n: float | None = None,
-                   quantiles: tuple[float, float] = (2.5, 97.5), seed: int = 0, max_draws: int = BAND_DRAWS) -> Band:
+def ambiguity_band(
+    problem: LawProblem,
+    draws: list[NDArray],
+    frames: NDArray,
+    *,
+    noise_n: float | None = None,
+    quantiles: tuple[float, float] = (2.5, 97.5),
+    seed: int = 0,
+    max_draws: int = BAND_DRAWS,
+) -> Band:
     """Band of the joint-side tensions over law draws.
 
     Parameters
@@ -84,8 +92,6 @@ def ambiguity_band(problem: LawProblem, draws: list[NDArray], frames: NDArray, *
     """
     rng = np.random.default_rng(seed)
     noise = problem.noise_n if noise_n is None else float(noise_n)
-    sub = LawProblem(problem.guide_design[frames], problem.log_drop[frames], problem.weight[frames], problem.tying,
-                     problem.inputs, problem.noise_n)
     act = problem.inputs.actuator[frames]  # (F, N, 3)
     lo = np.empty(act.shape)
     med = np.empty(act.shape)
@@ -93,7 +99,7 @@ def ambiguity_band(problem: LawProblem, draws: list[NDArray], frames: NDArray, *
     for i, th in enumerate(draws):
         if len(th) > max_draws:
             th = th[np.sort(rng.choice(len(th), size=max_draws, replace=False))]
-        expo = sub.joint_exponents(th)  # (D, F, N)
+        expo = problem.joint_exponents(th, frames)  # (D, F, N)
         log_t = np.log(act[None, :, :, i]) - expo
         log_t += rng.standard_normal(log_t.shape) * (noise / act[None, :, :, i])
         q = np.exp(np.percentile(log_t, [quantiles[0], 50.0, quantiles[1]], axis=0))

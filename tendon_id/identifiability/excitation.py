@@ -40,14 +40,18 @@ def excitation(wrap: NDArray, gate: NDArray | None = None) -> list[dict]:
     out = []
     for g in range(k):
         w = deg[:, g]
-        out.append({
-            "guide": g + 1,
-            "min_deg": float(w.min()), "max_deg": float(w.max()),
-            "p5_deg": float(np.percentile(w, 5)), "p95_deg": float(np.percentile(w, 95)),
-            "sd_deg": float(w.std()),
-            "distinct": int(len(np.unique(w))),
-            "corr_prev": _corr(w, deg[:, g - 1]) if g > 0 else None,
-            "corr_next": _corr(w, deg[:, g + 1]) if g < k - 1 else None,
-            "in_contact": None if gate is None else float(np.mean(gate[:, g] > 0.5)),
-        })
+        out.append(
+            {
+                "guide": g + 1,
+                "min_deg": float(w.min()),
+                "max_deg": float(w.max()),
+                "p5_deg": float(np.percentile(w, 5)),
+                "p95_deg": float(np.percentile(w, 95)),
+                "sd_deg": float(w.std()),
+                "distinct": int(len(np.unique(w))),
+                "corr_prev": _corr(w, deg[:, g - 1]) if g > 0 else None,
+                "corr_next": _corr(w, deg[:, g + 1]) if g < k - 1 else None,
+                "in_contact": None if gate is None else float(np.mean(gate[:, g] > 0.5)),
+            }
+        )
     return out

@@ -2,7 +2,7 @@
 
 For each parameter (and each guide's ``mu(0) = A + B``) the profile is
 ``PL(v) = min_{theta: c . theta = v, theta feasible} -2 ln L(theta)``, solved exactly
-with nlopt's SLSQP on the quadratic of :mod:`~tendon_id.identifiability.problem`.
+with nlopt's SLSQP on the quadratic of :meth:`tendon_id.problem.LawProblem.quadratic`.
 Relative to the optimum, ``Delta(v) = PL(v) - PL_min``:
 
 * in the Fisher null space (flat until the feasibility limit): structurally
@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.calibration import LawLayout, minimize
+from tendon_id.law_layout import LawLayout
+from tendon_id.optimize import minimize
 
 #: Pointwise 95 % threshold of the profile likelihood (chi-square quantile, 1 dof).
 THRESHOLD_95 = 3.841458820694124
@@ -64,8 +65,19 @@ def _range_of(c: NDArray, layout: LawLayout) -> tuple[float, float]:
     return float(np.sum(np.where(c > 0, c * lb, c * ub))), float(np.sum(np.where(c > 0, c * ub, c * lb)))
 
 
-def profile(M: NDArray, b: NDArray, c0: float, theta_hat: NDArray, direction: NDArray, layout: LawLayout, name: str,
-            *, sd: float, structural: bool = False, n_steps: int = 14) -> Profile:
+def profile(
+    M: NDArray,
+    b: NDArray,
+    c0: float,
+    theta_hat: NDArray,
+    direction: NDArray,
+    layout: LawLayout,
+    name: str,
+    *,
+    sd: float,
+    structural: bool = False,
+    n_steps: int = 14,
+) -> Profile:
     """Profile ``v = direction . theta`` of ``-2 ln L = theta^T M theta - 2 b^T theta + c0``.
 
     Steps outwards from the estimate by ``sd * 2^k`` (``sd`` the linearised standard
@@ -93,8 +105,18 @@ def profile(M: NDArray, b: NDArray, c0: float, theta_hat: NDArray, direction: ND
             v = v_hat + side * step0 * 0.5 * 2.0**k
             if v < lo_lim or v > hi_lim:
                 break
-            out = minimize(f, x_prev[side], lb=lb, ub=ub, grad=g, ineq=lambda x: cons_C @ x - cons_d, ineq_jac=cons_C,
-                           eq=(direction[None], np.array([v])), xtol_rel=1e-10, maxeval=500)
+            out = minimize(
+                f,
+                x_prev[side],
+                lb=lb,
+                ub=ub,
+                grad=g,
+                ineq=lambda x: cons_C @ x - cons_d,
+                ineq_jac=cons_C,
+                eq=(direction[None], np.array([v])),
+                xtol_rel=1e-10,
+                maxeval=500,
+            )
             if not out.feasible:
                 break
             moved = True
@@ -120,5 +142,12 @@ def profile(M: NDArray, b: NDArray, c0: float, theta_hat: NDArray, direction: ND
         verdict = "identifiable"
     else:
         verdict = "practically unidentifiable"
-    return Profile(name=name, values=values, delta=delta, estimate=v_hat, ci=(ci[0], ci[1]), verdict=verdict,
-                   ends=(ends[0], ends[1]))
+    return Profile(
+        name=name,
+        values=values,
+        delta=delta,
+        estimate=v_hat,
+        ci=(ci[0], ci[1]),
+        verdict=verdict,
+        ends=(ends[0], ends[1]),
+    )

@@ -1,7 +1,7 @@
 """Local (structural) identifiability: rank, Fisher eigen-spectrum, and the directions named in words.
 
 The Fisher information of a tendon's law is ``F = X^T W X / sigma^2``
-(:mod:`~tendon_id.identifiability.problem`).  Its null space holds the
+(:meth:`tendon_id.problem.LawProblem.precision`).  Its null space holds the
 combinations of parameters the data cannot see at all (structural
 non-identifiability); tiny but non-zero eigenvalues are sloppy, practically
 unidentifiable directions (Gutenkunst et al. 2007, "Universally sloppy parameter
@@ -99,6 +99,7 @@ def spectrum(F: NDArray, names: list[str]) -> Spectrum:
 
 
 # ---- words ---------------------------------------------------------------------------------
+
 
 def _parse(name: str) -> tuple[str, int | None, str]:
     """``"B_g3_t2"`` -> ``("B", 3, "t2")``; ``"A_t1"`` -> ``("A", None, "t1")``."""
@@ -213,8 +214,10 @@ def describe_null_space(s: Spectrum) -> list[str]:
             continue
         combos = [describe_combination(_sparsest(det, k), names) for k in range(min(n_det, 3))]
         tail = "" if n_det <= 3 else f"; and {n_det - 3} more"
-        out.append(f"{what}: {n_free} free directions; the data sees only {n_det} combination"
-                   f"{'s' if n_det > 1 else ''}: " + "; ".join(combos) + tail)
+        out.append(
+            f"{what}: {n_free} free directions; the data sees only {n_det} combination"
+            f"{'s' if n_det > 1 else ''}: " + "; ".join(combos) + tail
+        )
     return out
 
 
@@ -267,6 +270,8 @@ def describe_determined(s: Spectrum, max_items: int = 3) -> list[str]:
         out.append(f"{describe_combination(v, s.names)} (sd {1 / np.sqrt(s.eigenvalues[k]):.3g})")
     if s.rank > max_items or (s.rank and s.rank == s.n_params and s.n_params > 1):
         k = s.rank - 1
-        out.append(f"sloppiest identifiable: {describe_combination(s.eigenvectors[:, k], s.names)} "
-                   f"(sd {1 / np.sqrt(s.eigenvalues[k]):.3g})")
+        out.append(
+            f"sloppiest identifiable: {describe_combination(s.eigenvectors[:, k], s.names)} "
+            f"(sd {1 / np.sqrt(s.eigenvalues[k]):.3g})"
+        )
     return out

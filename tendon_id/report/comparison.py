@@ -10,7 +10,9 @@ from tendon_id.data import Recording
 from tendon_id.report.html import HtmlPage, pyplot
 
 
-def estimates_figure(rec: Recording, predictions: Mapping[str, np.ndarray], joints: tuple[int, ...] = (4, 8, 12), tendon: int = 1):
+def estimates_figure(
+    rec: Recording, predictions: Mapping[str, np.ndarray], joints: tuple[int, ...] = (4, 8, 12), tendon: int = 1
+):
     """Joint-side estimates of several models against truth for one trajectory.
 
     Parameters
@@ -71,6 +73,9 @@ def add_comparison(page: HtmlPage, test: dict[str, Recording], models: Mapping[s
     first = next(iter(test))
     page.figure(per_joint_rmse_figure(all_scores[first]), f"RMSE at every joint on held-out {first} trajectories.")
     rec = test[first].select([test[first].trajectories[0]])
-    page.figure(estimates_figure(rec, {n: m.predict(rec) for n, m in models.items()}),
-                "Joint-side estimates against simulator truth on a held-out trajectory: intermediate joints 4 and 8 and the terminal joint.")
+    page.figure(
+        estimates_figure(rec, {n: m.predict(rec) for n, m in models.items()}),
+        "Joint-side estimates against simulator truth on a held-out trajectory: "
+        "intermediate joints 4 and 8 and the terminal joint.",
+    )
     return all_scores

@@ -11,7 +11,8 @@ from pathlib import Path
 from tendon_id.atomic import write_text_atomic
 
 _STYLE = """
-body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#1d2330}
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;\
+margin:2em auto;padding:0 1em;color:#1d2330}
 h1{font-size:1.6em;margin-bottom:.2em} h2{font-size:1.25em;margin-top:1.6em;border-bottom:1px solid #dde}
 table{border-collapse:collapse;margin:.6em 0} td,th{border:1px solid #ccd;padding:.25em .6em;text-align:right}
 th{background:#f2f4f8} td:first-child,th:first-child{text-align:left}
@@ -21,7 +22,11 @@ figure{margin:1em 0} figcaption{color:#555;font-size:.9em} img{max-width:100%}
 
 
 def pyplot():
-    """``matplotlib.pyplot`` on the headless Agg backend (reports are drawn without a display)."""
+    """``matplotlib.pyplot`` on the headless Agg backend (reports are drawn without a display).
+
+    Imported on first use, not at module level: choosing a backend is process-wide, and a user
+    who imports tendon-id in an interactive session keeps theirs until a report is drawn.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -32,7 +37,7 @@ def pyplot():
 
 def figure_to_base64(fig) -> str:
     """PNG bytes of a matplotlib figure as base64 text; closes the figure."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # see pyplot(): on use
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight", metadata={"Software": None})
@@ -56,8 +61,10 @@ class HtmlPage:
 
     def link(self, text: str, href: str, before: str = "", after: str = "") -> None:
         """A paragraph with one link (a relative ``href`` keeps a report folder movable)."""
-        self._parts.append(f"<p>{html.escape(before)}<a href=\"{html.escape(href, quote=True)}\">{html.escape(text)}</a>"
-                           f"{html.escape(after)}</p>")
+        self._parts.append(
+            f'<p>{html.escape(before)}<a href="{html.escape(href, quote=True)}">{html.escape(text)}</a>'
+            f"{html.escape(after)}</p>"
+        )
 
     def table(self, header: list[str], rows: list[list[object]]) -> None:
         head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
@@ -73,7 +80,7 @@ class HtmlPage:
 
     def render(self) -> str:
         return (
-            "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             f"<title>{html.escape(self.title)}</title><style>{_STYLE}</style></head><body>"
             f"<h1>{html.escape(self.title)}</h1>" + "\n".join(self._parts) + "</body></html>\n"
         )

@@ -15,7 +15,6 @@ from tendon_id.identifiability.spectrum import RANK_RTOL
 from tendon_id.report.html import HtmlPage, pyplot
 
 
-
 def spectrum_figure(result: IdentifiabilityResult):
     """Fisher eigenvalues (log scale) of the tied and per-guide laws, per tendon."""
     plt = pyplot()
@@ -122,12 +121,16 @@ def band_figure(result: IdentifiabilityResult, truth: np.ndarray | None, joint: 
     frames = np.arange(start, min(start + window, inputs.n_frames))
     t = inputs.clock[frames]
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.3), sharey=False)
-    bands = {name: ambiguity_band(st.problem, st.draws, frames, seed=result.settings.seed)
-             for name, st in (("tied", tied), ("per-guide", per))}
+    bands = {
+        name: ambiguity_band(st.problem, st.draws, frames, seed=result.settings.seed)
+        for name, st in (("tied", tied), ("per-guide", per))
+    }
     for i, ax in enumerate(axes):
         for name, color in (("per-guide", "C1"), ("tied", "C0")):
             b = bands[name]
-            ax.fill_between(t, b.lo[:, joint - 1, i], b.hi[:, joint - 1, i], color=color, alpha=0.35, label=f"{name} 95 % band")
+            ax.fill_between(
+                t, b.lo[:, joint - 1, i], b.hi[:, joint - 1, i], color=color, alpha=0.35, label=f"{name} 95 % band"
+            )
         if truth is not None:
             ax.plot(t, truth[frames, joint - 1, i], "k", lw=1, label="truth")
         ax.set_title(f"joint {joint}, tendon {i + 1}")
@@ -181,8 +184,12 @@ def advice_figure(result: IdentifiabilityResult):
     ax2.plot(j, [x["expected_shrinkage"] for x in c], "o-", label="expected (linearised)")
     if result.advice_check:
         base = result.studies["per-guide"].band.mean_width()
-        ax2.plot([x["joint"] for x in result.advice_check], [1 - x["band_width_mean"] / base for x in result.advice_check],
-                 "s-", label="measured (with the joint's label)")
+        ax2.plot(
+            [x["joint"] for x in result.advice_check],
+            [1 - x["band_width_mean"] / base for x in result.advice_check],
+            "s-",
+            label="measured (with the joint's label)",
+        )
     ax2.set_xlabel("joint to instrument")
     ax2.set_ylabel("band shrinkage")
     ax2.legend(fontsize=8)
@@ -201,30 +208,41 @@ def report_page(result: IdentifiabilityResult) -> HtmlPage:
     js = result.to_json()
     tied, per = result.studies["tied"], result.studies["per-guide"]
     page = HtmlPage(f"Identifiability report: {Path(result.source).name}")
-    page.paragraph(f"Data: {result.source} (protocol {result.protocol or 'unknown'}, {result.n_frames} frames, "
-                   f"N = {result.n_modules}). Structure analysed: {result.model_name}, fitted on the terminal labels only; "
-                   f"load-cell noise {result.noise_n:g} N. Built in {result.seconds:.0f} s.")
+    page.paragraph(
+        f"Data: {result.source} (protocol {result.protocol or 'unknown'}, {result.n_frames} frames, "
+        f"N = {result.n_modules}). Structure analysed: {result.model_name}, fitted on the terminal labels only; "
+        f"load-cell noise {result.noise_n:g} N. Built in {result.seconds:.0f} s."
+    )
 
     page.heading("What this data determines")
     t, p = js["tied"], js["per_guide"]
-    page.paragraph(f"Tied law (one (A_i, B_i) per tendon): rank {t['rank']} of {t['n_params']} "
-                   f"({'full rank' if t['rank'] == t['n_params'] else 'rank-deficient'}), Fisher condition number "
-                   f"{t['condition_number_identifiable']:.3g}.")
-    page.paragraph(f"Per-guide law (one (A, B) per guide and tendon): rank {p['rank']} of {p['n_params']}: "
-                   f"{p['n_unidentifiable']} directions the terminal data cannot see at all.")
+    page.paragraph(
+        f"Tied law (one (A_i, B_i) per tendon): rank {t['rank']} of {t['n_params']} "
+        f"({'full rank' if t['rank'] == t['n_params'] else 'rank-deficient'}), Fisher condition number "
+        f"{t['condition_number_identifiable']:.3g}."
+    )
+    page.paragraph(
+        f"Per-guide law (one (A, B) per guide and tendon): rank {p['rank']} of {p['n_params']}: "
+        f"{p['n_unidentifiable']} directions the terminal data cannot see at all."
+    )
     for w in p["unidentifiable"]:
         page.paragraph("Unidentifiable: " + w, cls="note")
     page.heading("Well-determined combinations", level=3)
     post = t["posterior"]
     for i in range(3):
         a, b, m = post[f"A_t{i + 1}"], post[f"B_t{i + 1}"], post[f"mu0_t{i + 1}"]
-        page.paragraph(f"Tendon {i + 1}: mu(0) = A + B = {m['mean']:.4f} ± {m['sd']:.2g} is tight, while A = {a['mean']:.3f} ± "
-                       f"{a['sd']:.2g} and B = {b['mean']:.3f} ± {b['sd']:.2g} are sloppy (posterior correlation "
-                       f"{tied.correlation(i)[0, 1]:.4f}): at small wraps alpha cos(alpha) ≈ alpha, so only their sum is seen.")
+        page.paragraph(
+            f"Tendon {i + 1}: mu(0) = A + B = {m['mean']:.4f} ± {m['sd']:.2g} is tight, while A = {a['mean']:.3f} ± "
+            f"{a['sd']:.2g} and B = {b['mean']:.3f} ± {b['sd']:.2g} are sloppy (posterior correlation "
+            f"{tied.correlation(i)[0, 1]:.4f}): at small wraps alpha cos(alpha) ≈ alpha, so only their sum is seen."
+        )
     for w in t["well_determined"][:2] + p["well_determined"][:2]:
         page.paragraph("Best determined: " + w, cls="note")
-    page.figure(spectrum_figure(result), "Fisher-information eigen-spectrum: the per-guide law's eigenvalues fall off a cliff "
-                "where the data is blind (structural), and spread over many decades where it is sloppy.")
+    page.figure(
+        spectrum_figure(result),
+        "Fisher-information eigen-spectrum: the per-guide law's eigenvalues fall off a cliff "
+        "where the data is blind (structural), and spread over many decades where it is sloppy.",
+    )
 
     page.heading("Profile likelihoods")
     rows = []
@@ -234,75 +252,127 @@ def report_page(result: IdentifiabilityResult) -> HtmlPage:
                 if st is tied or q.name.startswith("mu0"):
                     rows.append([st.tying, q.name, q.estimate, _fmt_ci(q.ci), q.verdict])
     page.table(["law", "parameter", "estimate", "95 % interval", "verdict"], rows)
-    page.paragraph(f"Verdicts over all profiled parameters: tied {t['profile_verdicts']}, per-guide {p['profile_verdicts']}. "
-                   "Structural: in the Fisher null space (flat). Practical: the interval runs to the physical limit "
-                   "(mu ≥ 0 on [0, pi] and the sanity bounds). Threshold: 3.84 (95 %, Raue et al. 2009).", cls="note")
+    page.paragraph(
+        f"Verdicts over all profiled parameters: tied {t['profile_verdicts']}, per-guide {p['profile_verdicts']}. "
+        "Structural: in the Fisher null space (flat). Practical: the interval runs to the physical limit "
+        "(mu ≥ 0 on [0, pi] and the sanity bounds). Threshold: 3.84 (95 %, Raue et al. 2009).",
+        cls="note",
+    )
     page.figure(profile_figure(result), "Profile likelihoods with the 95 % threshold (dashed).")
 
     page.heading("Posterior widths and correlations")
     if result.emcee is not None:
         e = result.emcee
-        page.paragraph(f"emcee (tied, cross-check of the exact hit-and-run draws): corr(A, B) per tendon "
-                       f"{', '.join(f'{c:.4f}' for c in e['corr_A_B'])}; sd of mu(0) {', '.join(f'{s:.2g}' for s in e['mu0_sd'])}; "
-                       f"autocorrelation time {e['tau']:.0f} steps, {e['seconds']:.1f} s.")
-    page.paragraph(f"Hit-and-run convergence, largest split R-hat of mu(0) per tendon: tied "
-                   f"{', '.join(f'{r:.3f}' for r in tied.rhat)}, per-guide {', '.join(f'{r:.3f}' for r in per.rhat)} "
-                   "(values above 1.1 mean the flat per-guide directions were explored only roughly).", cls="note")
+        page.paragraph(
+            f"emcee (tied, cross-check of the exact hit-and-run draws): corr(A, B) per tendon "
+            f"{', '.join(f'{c:.4f}' for c in e['corr_A_B'])}; "
+            f"sd of mu(0) {', '.join(f'{s:.2g}' for s in e['mu0_sd'])}; "
+            f"autocorrelation time {e['tau']:.0f} steps, {e['seconds']:.1f} s."
+        )
+    page.paragraph(
+        f"Hit-and-run convergence, largest split R-hat of mu(0) per tendon: tied "
+        f"{', '.join(f'{r:.3f}' for r in tied.rhat)}, per-guide {', '.join(f'{r:.3f}' for r in per.rhat)} "
+        "(values above 1.1 mean the flat per-guide directions were explored only roughly).",
+        cls="note",
+    )
     page.figure(posterior_figure(result), "Tied (A, B) draws, and the per-guide posterior correlation matrix.")
 
     page.heading("Excitation coverage")
-    page.table(["guide", "min [deg]", "max [deg]", "sd [deg]", "distinct readings", "corr with next"],
-               [[c["guide"], c["min_deg"], c["max_deg"], c["sd_deg"], c["distinct"],
-                 "constant" if c["corr_next"] is None else c["corr_next"]] for c in result.excitation])
+    page.table(
+        ["guide", "min [deg]", "max [deg]", "sd [deg]", "distinct readings", "corr with next"],
+        [
+            [
+                c["guide"],
+                c["min_deg"],
+                c["max_deg"],
+                c["sd_deg"],
+                c["distinct"],
+                "constant" if c["corr_next"] is None else c["corr_next"],
+            ]
+            for c in result.excitation
+        ],
+    )
     page.figure(excitation_figure(result), "What each guide saw.")
 
     page.heading("Intermediate-tension ambiguity band")
     b = js["bands"]
-    text = (f"Mean 95 % band over the intermediate joints: tied {b['tied_width_mean']:.2f} N, per-guide "
-            f"{b['per_guide_width_mean']:.2f} N (laws that fit the terminal data equally well, plus the actuator load cell's noise).")
+    text = (
+        f"Mean 95 % band over the intermediate joints: tied {b['tied_width_mean']:.2f} N, per-guide "
+        f"{b['per_guide_width_mean']:.2f} N "
+        "(laws that fit the terminal data equally well, plus the actuator load cell's noise)."
+    )
     if b["truth_coverage"] is not None:
-        text += (f" The simulator truth lies inside the tied band for {100 * b['truth_coverage']:.1f} % of frames "
-                 f"(worst joint {100 * b['truth_coverage_min_joint']:.1f} %), inside the per-guide band for "
-                 f"{100 * b['per_guide_truth_coverage']:.1f} %.")
+        text += (
+            f" The simulator truth lies inside the tied band for {100 * b['truth_coverage']:.1f} % of frames "
+            f"(worst joint {100 * b['truth_coverage_min_joint']:.1f} %), inside the per-guide band for "
+            f"{100 * b['per_guide_truth_coverage']:.1f} %."
+        )
     page.paragraph(text)
     mis = js["misspecification"]
     if mis["misspecified"]:
-        page.paragraph(f"Misspecified: the terminal residual corresponds to {', '.join(f'{s:.1f}' for s in mis['residual_sigma_n'])} N "
-                       f"of noise against the load cells' {mis['nominal_noise_n']:g} N. The capstan law does not explain this data, "
-                       "so the bands describe the model's ambiguity, not the truth; "
-                       + ("the coverage above says how far off they are." if b["truth_coverage"] is not None else
-                          "an unmodelled effect is likely (see `tendon-id diagnose`)."))
+        page.paragraph(
+            "Misspecified: the terminal residual corresponds to "
+            f"{', '.join(f'{s:.1f}' for s in mis['residual_sigma_n'])} N "
+            f"of noise against the load cells' {mis['nominal_noise_n']:g} N. "
+            "The capstan law does not explain this data, "
+            "so the bands describe the model's ambiguity, not the truth; "
+            + (
+                "the coverage above says how far off they are."
+                if b["truth_coverage"] is not None
+                else "an unmodelled effect is likely (see `tendon-id diagnose`)."
+            )
+        )
     else:
-        page.paragraph(f"The residual ({', '.join(f'{s:.2f}' for s in mis['residual_sigma_n'])} N) matches the load cells' "
-                       f"{mis['nominal_noise_n']:g} N noise: no sign of misspecification.")
+        page.paragraph(
+            f"The residual ({', '.join(f'{s:.2f}' for s in mis['residual_sigma_n'])} N) matches the load cells' "
+            f"{mis['nominal_noise_n']:g} N noise: no sign of misspecification."
+        )
     page.figure(band_width_figure(result), "Band width per joint, and the share of frames whose truth it covers.")
-    page.figure(band_figure(result, result.truth, joint=max(2, result.n_modules // 2)),
-                "The band of a middle joint over the first frames, tied against per-guide.")
+    page.figure(
+        band_figure(result, result.truth, joint=max(2, result.n_modules // 2)),
+        "The band of a middle joint over the first frames, tied against per-guide.",
+    )
 
     page.heading("Advice: what to measure next")
     adv = js["advice"]
     best = next(c for c in adv["candidates"] if c["joint"] == adv["instrument_joint"])
-    page.paragraph(f"Instrument joint {adv['instrument_joint']} (D-optimal): the linearised per-guide band is expected to "
-                   f"shrink by {100 * best['expected_shrinkage']:.0f} %. Excite joints {', '.join(map(str, adv['excite_joints']))}: "
-                   "their guides' mu(0) is the least determined (undetermined where the data held them still).")
+    page.paragraph(
+        f"Instrument joint {adv['instrument_joint']} (D-optimal): the linearised per-guide band is expected to "
+        f"shrink by {100 * best['expected_shrinkage']:.0f} %. "
+        f"Excite joints {', '.join(map(str, adv['excite_joints']))}: "
+        "their guides' mu(0) is the least determined (undetermined where the data held them still)."
+    )
     if adv["check"]:
         widths = {c["joint"]: c["band_width_mean"] for c in adv["check"]}
         others = [w for j, w in widths.items() if j != adv["instrument_joint"]]
-        page.paragraph(f"Checked against the simulator truth: with joint {adv['instrument_joint']}'s label the mean per-guide band is "
-                       f"{widths[adv['instrument_joint']]:.2f} N, against {np.median(others):.2f} N for the median alternative "
-                       f"and {min(others):.2f} N for the best (joint {min((w, j) for j, w in widths.items() if j != adv['instrument_joint'])[1]}).")
+        page.paragraph(
+            f"Checked against the simulator truth: with joint {adv['instrument_joint']}'s label "
+            "the mean per-guide band is "
+            f"{widths[adv['instrument_joint']]:.2f} N, against {np.median(others):.2f} N for the median alternative "
+            f"and {min(others):.2f} N for the best "
+            f"(joint {min((w, j) for j, w in widths.items() if j != adv['instrument_joint'])[1]})."
+        )
     page.figure(advice_figure(result), "Which joint to instrument.")
 
     if result.learned is not None:
         page.heading("The learned cascade: tied against per-guide PG-CHTC")
         rows = []
         for name, d in result.learned.items():
-            rows.append([name, d["seeds"], "-" if d["joint_rmse_mean"] is None else d["joint_rmse_mean"], d["seed_spread_mean_n"]])
+            rows.append(
+                [
+                    name,
+                    d["seeds"],
+                    "-" if d["joint_rmse_mean"] is None else d["joint_rmse_mean"],
+                    d["seed_spread_mean_n"],
+                ]
+            )
         page.table(["PG-CHTC", "seeds", "intermediate-joint RMSE [N]", "spread across seeds [N]"], rows)
     return page
 
 
-def write_report(result: IdentifiabilityResult, out: str | os.PathLike, json_path: str | os.PathLike | None = None) -> Path:
+def write_report(
+    result: IdentifiabilityResult, out: str | os.PathLike, json_path: str | os.PathLike | None = None
+) -> Path:
     """Write the HTML page (and the JSON summary) atomically."""
     path = report_page(result).write(out)
     if json_path is not None:

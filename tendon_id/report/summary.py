@@ -13,7 +13,6 @@ from tendon_id.geometry import RobotGeometry, backbone_wrap
 from tendon_id.report.html import HtmlPage, pyplot
 
 
-
 def wrap_coverage_figure(recordings: Sequence[Recording]):
     """Box plot of the backbone wrap [deg] each guide saw, one colour per protocol."""
     plt = pyplot()
@@ -98,17 +97,39 @@ def summary_page(recordings: Sequence[Recording], title: str = "tendon-id record
                 float(np.mean(rec.actuator[:, -1])),
             ]
         )
-    page.table(["protocol", "modules", "frames", "trajectories", "effects", "intermediate truth", "mean terminal [N]", "mean actuator, set N [N]"], rows)
+    page.table(
+        [
+            "protocol",
+            "modules",
+            "frames",
+            "trajectories",
+            "effects",
+            "intermediate truth",
+            "mean terminal [N]",
+            "mean actuator, set N [N]",
+        ],
+        rows,
+    )
     page.heading("Wrap coverage per guide")
-    page.figure(wrap_coverage_figure(recordings), "Backbone wrap alpha_k (paper Eq. (3)) seen by each guide, per protocol.")
+    page.figure(
+        wrap_coverage_figure(recordings), "Backbone wrap alpha_k (paper Eq. (3)) seen by each guide, per protocol."
+    )
     for rec in recordings:
         page.heading(f"Tension traces: {rec.protocol}")
-        page.figure(tension_trace_figure(rec), "Actuator-side, intermediate joint-side truth and terminal joint-side tensions of one trajectory.")
-        page.figure(actuator_vs_terminal_figure(rec), "Terminal joint side against actuator side for the terminal set: the gap below the dashed line is the transmission loss.")
+        page.figure(
+            tension_trace_figure(rec),
+            "Actuator-side, intermediate joint-side truth and terminal joint-side tensions of one trajectory.",
+        )
+        page.figure(
+            actuator_vs_terminal_figure(rec),
+            "Terminal joint side against actuator side for the terminal set: "
+            "the gap below the dashed line is the transmission loss.",
+        )
     return page
 
 
-def write_summary(recordings: Sequence[Recording], path: str | os.PathLike, title: str = "tendon-id recording summary") -> Path:
+def write_summary(
+    recordings: Sequence[Recording], path: str | os.PathLike, title: str = "tendon-id recording summary"
+) -> Path:
     """Write the summary page of ``recordings`` to ``path`` (atomically)."""
     return summary_page(recordings, title).write(path)
-

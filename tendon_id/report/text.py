@@ -17,7 +17,11 @@ def format_summary(s: dict, name: str) -> str:
         f"recipe        {s.get('recipe') or '-'}   seed {s.get('seed') if s.get('seed') is not None else '-'}",
         f"effects       {', '.join(s.get('effects') or []) or 'none'}",
     ]
-    for key, label, unit in (("angle_deg", "angles", "deg"), ("actuator_n", "actuator", "N"), ("terminal_n", "terminal", "N")):
+    for key, label, unit in (
+        ("angle_deg", "angles", "deg"),
+        ("actuator_n", "actuator", "N"),
+        ("terminal_n", "terminal", "N"),
+    ):
         if key in r:
             lo, hi = r[key]["min"], r[key]["max"]
             lines.append(f"{label:<13} {lo:9.2f} .. {hi:9.2f} {unit}")

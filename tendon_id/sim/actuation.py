@@ -48,7 +48,9 @@ class Actuation:
             raise ConfigError("actuation needs gain_n_per_rad >= 0, 0 <= variation < 0.25 and max_tension_n > 0")
         object.__setattr__(self, "variation_period_s", tuple(float(p) for p in self.variation_period_s))
 
-    def tensions(self, rng: np.random.Generator, theta: NDArray, pretension: float, geometry: RobotGeometry, dt: float) -> NDArray:
+    def tensions(
+        self, rng: np.random.Generator, theta: NDArray, pretension: float, geometry: RobotGeometry, dt: float
+    ) -> NDArray:
         """Actuator-side tensions [N] of one trajectory, shape (T, N, 3).
 
         Parameters

@@ -22,7 +22,13 @@ from tendon_id.sim.motion import PathBuilder
 PROTOCOL_NAMES = ("terminal-only", "posterior-3", "posterior-6", "planned-paths", "single-passage")
 
 #: The paper's frame counts (Section IV-A); single-passage is our unit-level rig.
-PAPER_FRAMES = {"terminal-only": 50000, "posterior-3": 5000, "posterior-6": 3000, "planned-paths": 10000, "single-passage": 6000}
+PAPER_FRAMES = {
+    "terminal-only": 50000,
+    "posterior-3": 5000,
+    "posterior-6": 3000,
+    "planned-paths": 10000,
+    "single-passage": 6000,
+}
 
 DEG = np.pi / 180.0
 

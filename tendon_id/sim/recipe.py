@@ -127,7 +127,21 @@ class Recipe:
     def from_dict(cls, d: Mapping, *, source: str = "<recipe>") -> Recipe:
         """Build a recipe from the TOML layout (see ``datasets/*.toml``)."""
         d = dict(d)
-        known = {"name", "description", "seed", "sample_rate_hz", "v_max_deg_s", "session", "robot", "friction", "effects", "actuation", "sensors", "protocols", "card"}
+        known = {
+            "name",
+            "description",
+            "seed",
+            "sample_rate_hz",
+            "v_max_deg_s",
+            "session",
+            "robot",
+            "friction",
+            "effects",
+            "actuation",
+            "sensors",
+            "protocols",
+            "card",
+        }
         unknown = sorted(set(d) - known)
         if unknown:
             raise ConfigError(f"{source}: unknown section(s) {unknown}; known: {sorted(known)}")

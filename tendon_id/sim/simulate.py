@@ -8,12 +8,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.data import Recording
+from tendon_id.errors import ConfigError
 from tendon_id.progress import progress_bar
 from tendon_id.sim.effects import Effects, parse_effect_names
+from tendon_id.sim.motion import PathBuilder
 from tendon_id.sim.protocols import PROTOCOL_NAMES, PROTOCOLS, MotionContext, held_joint_count, held_pose
 from tendon_id.sim.recipe import Recipe
 from tendon_id.sim.sensors import apply_sensor_bias
-from tendon_id.sim.motion import PathBuilder
 from tendon_id.sim.transmission import transmit
 
 _STREAM_MOTION, _STREAM_TENSION, _STREAM_NOISE, _STREAM_POSES, _STREAM_TRANSITION = range(5)
@@ -131,8 +132,6 @@ def simulate(
     settings = recipe.protocol(protocol)
     if frames is not None:
         if int(frames) < 2:
-            from tendon_id.errors import ConfigError
-
             raise ConfigError(f"--frames must be at least 2, got {frames}")
         settings = type(settings)(**{**settings.__dict__, "frames": int(frames)})
     seed = recipe.seed if seed is None else int(seed)
@@ -150,11 +149,18 @@ def simulate(
 
     pose_rng = _rng(seed, protocol, 0, _STREAM_POSES)
     n_held = held_joint_count(protocol, n)
-    poses = [np.zeros((n, 2)) if (protocol == "terminal-only" and p == 0) else held_pose(pose_rng, n, n_held, settings.held_pose_deg) for p in range(settings.n_held_poses)]
+    poses = [
+        np.zeros((n, 2))
+        if (protocol == "terminal-only" and p == 0)
+        else held_pose(pose_rng, n, n_held, settings.held_pose_deg)
+        for p in range(settings.n_held_poses)
+    ]
 
     thetas, acts, ids = [], [], []
     for ti in progress_bar(range(n_traj), desc=f"simulate {protocol}", enable=progress):
-        ctx = MotionContext(n, type(settings)(**{**settings.__dict__, "trajectory_frames": lengths[ti]}), dt, v_max, ti, tuple(poses))
+        ctx = MotionContext(
+            n, type(settings)(**{**settings.__dict__, "trajectory_frames": lengths[ti]}), dt, v_max, ti, tuple(poses)
+        )
         theta = PROTOCOLS[protocol](_rng(seed, protocol, ti, _STREAM_MOTION), ctx)
         trng = _rng(seed, protocol, ti, _STREAM_TENSION)
         level = trng.uniform(*settings.pretension_n)
@@ -169,8 +175,13 @@ def simulate(
     for ti in range(n_traj):
         if recipe.session == "continuous":
             gap_theta, gap_act = _transition(
-                _rng(seed, protocol, ti, _STREAM_TRANSITION), thetas[ti - 1][-1] if ti else thetas[0][0],
-                acts[ti - 1][-1] if ti else acts[0][0], thetas[0 if ti == 0 else ti][0], acts[ti][0], v_max, dt,
+                _rng(seed, protocol, ti, _STREAM_TRANSITION),
+                thetas[ti - 1][-1] if ti else thetas[0][0],
+                acts[ti - 1][-1] if ti else acts[0][0],
+                thetas[0 if ti == 0 else ti][0],
+                acts[ti][0],
+                v_max,
+                dt,
             )
             pieces_theta.append(gap_theta)
             pieces_act.append(gap_act)
@@ -212,12 +223,28 @@ def simulate(
         "effects": list(eff.enabled),
         "effect_params": eff.to_dict()["params"],
         "friction_truth": {"A": list(recipe.friction.A), "B": list(recipe.friction.B)},
-        "sensors": {"noise_n": recipe.sensors.noise_n, "range_n": recipe.sensors.range_n, "encoder_bits": recipe.sensors.encoder_bits},
+        "sensors": {
+            "noise_n": recipe.sensors.noise_n,
+            "range_n": recipe.sensors.range_n,
+            "encoder_bits": recipe.sensors.encoder_bits,
+        },
         "seed": seed,
     }
     trajectory = np.repeat(np.array(ids, dtype=object), lengths)
     rec = Recording.from_arrays(
-        trajectory=trajectory, t=t_local, angles=angles, actuator=actuator, terminal=terminal, joint_truth=joint_truth, meta=meta
+        trajectory=trajectory,
+        t=t_local,
+        angles=angles,
+        actuator=actuator,
+        terminal=terminal,
+        joint_truth=joint_truth,
+        meta=meta,
     )
-    return SimulationResult(recording=rec, chain=chain, sigma=sigma, theta_true=theta_true, wrap=wrap,
-                            session=Session(theta=session_theta, actuator=session_act, reset=reset, logged=logged))
+    return SimulationResult(
+        recording=rec,
+        chain=chain,
+        sigma=sigma,
+        theta_true=theta_true,
+        wrap=wrap,
+        session=Session(theta=session_theta, actuator=session_act, reset=reset, logged=logged),
+    )

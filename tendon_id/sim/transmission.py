@@ -28,14 +28,15 @@ from friction_models import (
     velocity_dependent_mu,
     viscoelastic_lag,
 )
+from tendon_id.errors import ConfigError
 from tendon_id.geometry import (
     RobotGeometry,
-    _turn_into_upper,
-    _turn_out_of_lower,
     backbone_wrap,
     joint_rotation,
     projected_bend,
     tendon_azimuths,
+    turn_into_upper,
+    turn_out_of_lower,
 )
 from tendon_id.sim.effects import Effects
 
@@ -69,8 +70,6 @@ class FrictionLaw:
     B: tuple[float, float, float] = (0.09, 0.08, 0.10)
 
     def __post_init__(self) -> None:
-        from tendon_id.errors import ConfigError
-
         A = tuple(float(a) for a in self.A)
         B = tuple(float(b) for b in self.B)
         if len(A) != 3 or len(B) != 3:
@@ -219,8 +218,8 @@ def transmit(
     for g in range(n - 1):
         on = slice(g + 1, n)
         if wrap_model == "exact":  # turns at joint k (into link k) and joint k+1 (out of link k)
-            alpha = _turn_into_upper(R[:, g, None, None], ux[on], uy[on], 0.5 * geometry.joint_gap)
-            alpha = alpha + _turn_out_of_lower(R[:, g + 1, None, None], ux[on], uy[on], 0.5 * geometry.joint_gap)
+            alpha = turn_into_upper(R[:, g, None, None], ux[on], uy[on], 0.5 * geometry.joint_gap)
+            alpha = alpha + turn_out_of_lower(R[:, g + 1, None, None], ux[on], uy[on], 0.5 * geometry.joint_gap)
             alpha = np.minimum(alpha + geometry.alpha_0, np.pi)
         elif wrap_model == "projected":
             alpha = np.minimum(0.5 * bend_abs[:, g, on] + 0.5 * bend_abs[:, g + 1, on] + geometry.alpha_0, np.pi)
@@ -228,12 +227,15 @@ def transmit(
             alpha = wrap[:, g, None, None]  # the backbone wrap, shared by every set and tendon
         mu = friction.mu(alpha)
         if np.any(mu < 0):
-            from tendon_id.errors import ConfigError
-
             bad = float(np.max(np.broadcast_to(alpha, mu.shape)[mu < 0]))
-            raise ConfigError(f"the friction law is negative at wraps this motion reaches ({bad:.2f} rad at guide {g + 1}); use a law with mu >= 0 there")
+            raise ConfigError(
+                f"the friction law is negative at wraps this motion reaches ({bad:.2f} rad at guide {g + 1}); "
+                "use a law with mu >= 0 there"
+            )
         if vf is not None:
-            mu = velocity_dependent_mu(mu, _sliding_speed_at(cum_rate, g, psi, geometry.hole_radius), vf.v_ref, vf.stribeck_drop, vf.v_stribeck)
+            mu = velocity_dependent_mu(
+                mu, _sliding_speed_at(cum_rate, g, psi, geometry.hole_radius), vf.v_ref, vf.stribeck_drop, vf.v_stribeck
+            )
         ph = mu * (alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha)
         if wear is not None:
             ph = ph * wear[g]

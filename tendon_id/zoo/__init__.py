@@ -4,13 +4,18 @@
 >>> model = zoo.make("capstan-nonsmooth", tying="tied")    # doctest: +SKIP
 >>> model.fit(train).predict(test).shape                    # doctest: +SKIP
 (T, N, 3)
+
+Importing the zoo loads no neural model: the registry imports a model's module (and torch,
+for the learned ones) only when that model is made or loaded.
 """
 
-from tendon_id.zoo.base import NotFittedError, TransmissionModel, load_model
+from tendon_id.zoo.base import NotFittedError, TransmissionModel
 from tendon_id.zoo.blocks import Block, ContactGate, Hysteresis, SensorBias, ViscoelasticLag
-from tendon_id.zoo.capstan import CapstanModel, ProximalModel
+from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
-from tendon_id.zoo.registry import make, model_class, names, register
+from tendon_id.zoo.persistence import load_model
+from tendon_id.zoo.proximal import ProximalModel
+from tendon_id.zoo.registry import make, model_class, names, names_of, register
 
 load = load_model
 
@@ -30,5 +35,6 @@ __all__ = [
     "make",
     "model_class",
     "names",
+    "names_of",
     "register",
 ]

@@ -4,7 +4,8 @@
 * ``fit(data)`` returns ``self``; fitted state ends in ``_``.
 * ``predict(data)`` returns joint-side estimates ``T[j, j, i]``, shape (T, N, 3) [N],
   without side effects; ``predict_chain`` every ``T[k, j, i]``, shape (T, N, N, 3).
-* ``save(dir)``/``load(dir)``: ``model.json`` plus ``arrays.npz`` (never pickle).
+* ``save(dir)``: ``model.json`` plus ``arrays.npz`` (never pickle); :func:`tendon_id.zoo.load_model`
+  reads it back.
 """
 
 from __future__ import annotations
@@ -42,7 +43,9 @@ class TransmissionModel(abc.ABC):
     @classmethod
     def _param_names(cls) -> list[str]:
         sig = inspect.signature(cls.__init__)
-        return [p for p in sig.parameters if p != "self" and sig.parameters[p].kind is not inspect.Parameter.VAR_KEYWORD]
+        return [
+            p for p in sig.parameters if p != "self" and sig.parameters[p].kind is not inspect.Parameter.VAR_KEYWORD
+        ]
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         """The settings given to ``__init__``."""
@@ -84,16 +87,19 @@ class TransmissionModel(abc.ABC):
     def is_fitted(self) -> bool:
         return bool(getattr(self, "n_modules_", None))
 
-    def _check_fitted(self) -> None:
+    def check_fitted(self) -> None:
+        """Raise :class:`NotFittedError` unless the model is fitted (or loaded)."""
         if not self.is_fitted:
             raise NotFittedError(f"this {self.name} model is not fitted yet: call fit() or load() first")
 
     def _check_data(self, data) -> list[Recording]:
         recs = as_recordings(data)
-        self._check_fitted()
+        self.check_fitted()
         for r in recs:
             if r.n_modules != self.n_modules_:
-                raise ConfigError(f"the model was fitted on {self.n_modules_} modules but {r.source or 'the data'} has {r.n_modules}")
+                raise ConfigError(
+                    f"the model was fitted on {self.n_modules_} modules but {r.source or 'the data'} has {r.n_modules}"
+                )
         return recs
 
     def score(self, data: Recording | Sequence[Recording]) -> dict[str, Any]:
@@ -132,7 +138,7 @@ class TransmissionModel(abc.ABC):
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write ``path/model.json`` and ``path/arrays.npz`` (atomically each). Returns the folder."""
-        self._check_fitted()
+        self.check_fitted()
         folder = Path(path)
         folder.mkdir(parents=True, exist_ok=True)
         state, arrays = self._state()
@@ -144,6 +150,13 @@ class TransmissionModel(abc.ABC):
     @classmethod
     def _from_params(cls, params: dict) -> TransmissionModel:
         return cls(**params)
+
+    @classmethod
+    def from_saved(cls, params: dict, state: dict, arrays: dict[str, np.ndarray]) -> TransmissionModel:
+        """A fitted model from what :meth:`save` wrote: its settings, JSON state and arrays."""
+        model = cls._from_params(params)
+        model._restore(state, arrays)
+        return model
 
 
 def _savez(tmp: str, arrays: dict[str, np.ndarray]) -> None:
@@ -161,34 +174,3 @@ def _jsonable(v: Any) -> Any:
     if isinstance(v, np.generic):
         return v.item()
     return v
-
-
-def load_model(path: str | os.PathLike) -> TransmissionModel:
-    """Load a model saved by :meth:`TransmissionModel.save`.
-
-    Raises
-    ------
-    ConfigError
-        Naming the folder, if it holds no model or an unknown one.
-    """
-    from tendon_id.zoo.registry import model_class
-
-    folder = Path(path)
-    doc_path = folder / "model.json"
-    if not doc_path.is_file():
-        raise ConfigError(f"{folder}: no model.json here; is this a folder written by 'tendon-id fit'?")
-    try:
-        doc = json.loads(doc_path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"{doc_path}: not valid JSON ({exc})") from None
-    if doc.get("format") != FORMAT_VERSION:
-        raise ConfigError(f"{doc_path}: unsupported model format {doc.get('format')!r}")
-    cls = model_class(doc.get("model", ""))
-    model = cls._from_params(doc.get("params", {}))
-    arrays_path = folder / "arrays.npz"
-    arrays = {}
-    if arrays_path.is_file():
-        with np.load(arrays_path, allow_pickle=False) as npz:
-            arrays = {k: npz[k] for k in npz.files}
-    model._restore(doc.get("state", {}), arrays)
-    return model

@@ -31,15 +31,23 @@ from typing import ClassVar
 import numpy as np
 import torch
 
-from learners.baselines import (BaselineConfig, baseline_config, build_baseline, count_parameters, fit_normalisation,
-                                predict_log_ratio, train_baseline)
+from learners.baselines import (
+    BaselineConfig,
+    baseline_config,
+    build_baseline,
+    count_parameters,
+    fit_normalisation,
+    predict_log_ratio,
+    train_baseline,
+)
 from learners.training import TrainingError
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
-from tendon_id.geometry import RobotGeometry
+from tendon_id.geometry import RobotGeometry, sin_q
+from tendon_id.progress import epoch_progress
 from tendon_id.zoo.base import TransmissionModel
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
-from tendon_id.zoo.learned import _sin_q, _tqdm_epochs, resolve_device
+from tendon_id.zoo.neural import load_weights, resolve_device, weights_array
 
 MODES = ("auto", "unit", "end-to-end")
 
@@ -83,8 +91,17 @@ class _Baseline(TransmissionModel):
     name: ClassVar[str] = "baseline"
     kind: ClassVar[str] = ""
 
-    def __init__(self, preset: str = "fast", mode: str = "auto", window: int = 20, val_fraction: float = 0.3,
-                 device: str = "auto", seed: int = 0, robot: dict | None = None, progress: bool | None = None):
+    def __init__(
+        self,
+        preset: str = "fast",
+        mode: str = "auto",
+        window: int = 20,
+        val_fraction: float = 0.3,
+        device: str = "auto",
+        seed: int = 0,
+        robot: dict | None = None,
+        progress: bool | None = None,
+    ):
         self.preset = preset
         self.mode = mode
         self.window = window
@@ -100,15 +117,17 @@ class _Baseline(TransmissionModel):
             raise ConfigError(f"{self.name}: unknown mode {self.mode!r}; modes: {', '.join(MODES)}")
         mode = ("unit" if n_modules == 2 else "end-to-end") if self.mode == "auto" else self.mode
         if mode == "unit" and n_modules != 2:
-            raise ConfigError(f"{self.name}: mode='unit' is the single-passage form (N = 2) but the data has {n_modules} modules; "
-                              "use mode='end-to-end' (or 'auto')")
+            raise ConfigError(
+                f"{self.name}: mode='unit' is the single-passage form (N = 2) but the data has {n_modules} modules; "
+                "use mode='end-to-end' (or 'auto')"
+            )
         return mode
 
     @staticmethod
     def _features(inp: TransmissionInputs, mode: str) -> np.ndarray:
         """Per-frame inputs (T, F): 8 unit inputs (unit form) or ``X(t)`` (5N, end to end)."""
         if mode == "unit":  # paper Eq. (7) at guide 1 for set 2 (normalised inside the network)
-            return np.concatenate([_sin_q(inp.angles)[:, 0], np.cos(inp.wrap[:, :1]), inp.actuator[:, 1]], axis=1)
+            return np.concatenate([sin_q(inp.angles)[:, 0], np.cos(inp.wrap[:, :1]), inp.actuator[:, 1]], axis=1)
         t = inp.n_frames
         return np.concatenate([inp.actuator.reshape(t, -1), inp.angles.reshape(t, -1)], axis=1)
 
@@ -140,8 +159,10 @@ class _Baseline(TransmissionModel):
         allrec = Recording.concat(recs) if len(recs) > 1 else recs[0]
         if self.val_fraction > 0:
             if len(allrec.trajectories) < 2:
-                raise ConfigError(f"{self.name} needs at least two trajectories (one to train on, one to validate "
-                                  "for early stopping), or val_fraction=0")
+                raise ConfigError(
+                    f"{self.name} needs at least two trajectories (one to train on, one to validate "
+                    "for early stopping), or val_fraction=0"
+                )
             train, val = allrec.split((1.0 - self.val_fraction, self.val_fraction), seed=self.seed)
         else:
             train, val = allrec, None
@@ -160,15 +181,25 @@ class _Baseline(TransmissionModel):
         net = build_baseline(cfg)
         fit_normalisation(net, xs, ys)
         try:
-            hist = train_baseline(net, (xs, ys), val_xy, schedule, seed=self.seed, device=resolve_device(self.device),
-                                  progress=_tqdm_epochs(self.progress))
+            hist = train_baseline(
+                net,
+                (xs, ys),
+                val_xy,
+                schedule,
+                seed=self.seed,
+                device=resolve_device(self.device),
+                progress=epoch_progress(self.progress),
+            )
         except TrainingError as exc:
             raise TendonIdError(str(exc)) from None
         self.net_ = net.cpu().eval()
         self.n_parameters_ = count_parameters(net)
         finite = lambda v: v if v is None or np.isfinite(v) else None  # noqa: E731  (strict JSON: no NaN/Infinity)
-        self.history_ = {"epochs": [{k: finite(v) for k, v in e.items()} for e in hist.epochs],
-                         "best_val": finite(hist.best_val), "best_epoch": hist.best_epoch}
+        self.history_ = {
+            "epochs": [{k: finite(v) for k, v in e.items()} for e in hist.epochs],
+            "best_val": finite(hist.best_val),
+            "best_epoch": hist.best_epoch,
+        }
         return self
 
     def _check(self, data) -> list[Recording]:
@@ -178,7 +209,10 @@ class _Baseline(TransmissionModel):
         return recs
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
-        """``T[k, j, i]`` [N], shape (T, N, N, 3): the proximal chain with ``T[N, N]`` estimated; NaN where ``k > j``."""
+        """``T[k, j, i]`` [N], shape (T, N, N, 3): the proximal chain with ``T[N, N]`` estimated.
+
+        NaN where ``k > j``.
+        """
         recs = self._check(data)
         xs, _, bounds, inp = self._trajectories(recs, with_target=False)
         log_ratio = predict_log_ratio(self.net_, xs)
@@ -192,44 +226,48 @@ class _Baseline(TransmissionModel):
 
     # ---- persistence -----------------------------------------------------------------------------
     def _state(self):
-        from safetensors.numpy import save
-
-        weights = {k: v.detach().cpu().numpy() for k, v in self.net_.state_dict().items()}
-        state = {"n_modules": self.n_modules_, "mode": self.mode_, "geometry": self.geometry_.to_dict(),
-                 "config": asdict(self.net_.cfg), "n_parameters": self.n_parameters_, "history": self.history_}
-        return state, {"weights_safetensors": np.frombuffer(save(weights), dtype=np.uint8)}
+        state = {
+            "n_modules": self.n_modules_,
+            "mode": self.mode_,
+            "geometry": self.geometry_.to_dict(),
+            "config": asdict(self.net_.cfg),
+            "n_parameters": self.n_parameters_,
+            "history": self.history_,
+        }
+        return state, weights_array(self.net_)
 
     def _restore(self, state, arrays):
-        from safetensors.numpy import load
-
         self.n_modules_ = int(state["n_modules"])
         self.mode_ = str(state["mode"])
         self.geometry_ = RobotGeometry.from_dict(state["geometry"])
         cfg = dict(state["config"])
         cfg["hidden"] = tuple(cfg["hidden"])
-        net = build_baseline(BaselineConfig(**cfg))
-        weights = load(arrays["weights_safetensors"].tobytes())
-        net.load_state_dict({k: torch.as_tensor(v) for k, v in weights.items()})
-        self.net_ = net.eval()
-        self.n_parameters_ = int(state.get("n_parameters", count_parameters(net)))
+        self.net_ = load_weights(build_baseline(BaselineConfig(**cfg)), arrays)
+        self.n_parameters_ = int(state.get("n_parameters", count_parameters(self.net_)))
         self.history_ = state.get("history", {})
 
 
 class MLPBaseline(_Baseline):
-    __doc__ = "Static MLP baseline (paper Table I, \"MLP [15]\"): the current frame only, like ``f_theta``.\n" + (_Baseline.__doc__ or "")
+    __doc__ = 'Static MLP baseline (paper Table I, "MLP [15]"): the current frame only, like ``f_theta``.\n' + (
+        _Baseline.__doc__ or ""
+    )
     name = "mlp"
     kind = "mlp"
 
 
 class LSTMBaseline(_Baseline):
-    __doc__ = ("Causal LSTM baseline (paper Table I, \"LSTM [16]\"): trained on chunks, stateful over each trajectory "
-               "at prediction.\n" + (_Baseline.__doc__ or ""))
+    __doc__ = (
+        'Causal LSTM baseline (paper Table I, "LSTM [16]"): trained on chunks, stateful over each trajectory '
+        "at prediction.\n" + (_Baseline.__doc__ or "")
+    )
     name = "lstm"
     kind = "lstm"
 
 
 class TransformerBaseline(_Baseline):
-    __doc__ = ("Causal Transformer baseline (paper Table I, \"Transformer [13]\"): sliding-window attention over the "
-               "last ``window`` frames per layer.\n" + (_Baseline.__doc__ or ""))
+    __doc__ = (
+        'Causal Transformer baseline (paper Table I, "Transformer [13]"): sliding-window attention over the '
+        "last ``window`` frames per layer.\n" + (_Baseline.__doc__ or "")
+    )
     name = "transformer"
     kind = "transformer"

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from friction_models import hard_contact_gate, viscoelastic_lag
 from friction_models.play_operator import play_output
+from tendon_id.errors import ConfigError
 
 STAGES = ("exponent", "propagate", "guide_output", "sensor")
 
@@ -129,3 +130,16 @@ def block_from_dict(d: dict) -> Block:
     d = dict(d)
     cls = BLOCK_TYPES[d.pop("block")]
     return cls(**d)
+
+
+def as_block(b: Block | str | dict) -> Block:
+    """A block from a block, its name (default settings) or :meth:`Block.to_dict`'s dict."""
+    if isinstance(b, Block):
+        return b
+    if isinstance(b, str):
+        if b not in BLOCK_TYPES:
+            raise ConfigError(f"unknown block {b!r}; known blocks: {', '.join(BLOCK_TYPES)}")
+        return BLOCK_TYPES[b]()
+    if isinstance(b, dict):
+        return block_from_dict(b)
+    raise ConfigError(f"a block must be a Block, a block name or a dict, got {b!r}")

@@ -1,4 +1,4 @@
-"""Analytic transmission hypotheses: proximal, and the capstan family built from effect blocks.
+"""The capstan family of transmission hypotheses, built from effect blocks.
 
 The capstan family propagates ``ln T`` of every tendon through the guides with
 exponent ``phi = mu_i(alpha_k) alpha_k`` (paper Eqs. (4)–(6)) and the blocks of
@@ -20,66 +20,20 @@ tribological homogeneity); ``"per-guide"`` gives each guide its own.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.calibration import calibrate_capstan
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
 from tendon_id.zoo.base import TransmissionModel
-from tendon_id.zoo.blocks import BLOCK_TYPES, Block, block_from_dict
+from tendon_id.zoo.blocks import Block, as_block, block_from_dict
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 
 MU_LAWS = ("affine-cosine", "constant")
 TYINGS = ("tied", "per-guide")
-
-
-def _as_block(b: Block | str | dict) -> Block:
-    if isinstance(b, Block):
-        return b
-    if isinstance(b, str):
-        if b not in BLOCK_TYPES:
-            raise ConfigError(f"unknown block {b!r}; known blocks: {', '.join(BLOCK_TYPES)}")
-        return BLOCK_TYPES[b]()
-    if isinstance(b, dict):
-        return block_from_dict(b)
-    raise ConfigError(f"a block must be a Block, a block name or a dict, got {b!r}")
-
-
-class ProximalModel(TransmissionModel):
-    """No loss: every joint side equals its actuator side (the paper's "Proximal measurement").
-
-    Parameters
-    ----------
-    robot : dict, optional
-        Unused; accepted so that every zoo model takes it.
-    """
-
-    name = "proximal"
-
-    def __init__(self, robot: dict | None = None):
-        self.robot = robot
-
-    def fit(self, data: Recording | Sequence[Recording]) -> ProximalModel:
-        recs = [r.fitting_view() for r in as_recordings(data)]
-        self.n_modules_ = recs[0].n_modules
-        return self
-
-    def predict_chain(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
-        recs = self._check_data(data)
-        act = np.concatenate([r.actuator for r in recs])  # (T, N, 3)
-        n = act.shape[1]
-        chain = np.broadcast_to(act[:, None], (act.shape[0], n, n, 3)).copy()
-        chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan  # k > j is off the path
-        return chain
-
-    def _state(self):
-        return {"n_modules": self.n_modules_}, {}
-
-    def _restore(self, state, arrays):
-        self.n_modules_ = int(state["n_modules"])
 
 
 class CapstanModel(TransmissionModel):
@@ -116,7 +70,10 @@ class CapstanModel(TransmissionModel):
         Fitted law, ``G = 1`` (tied) or ``N - 1`` (per-guide); ``A_`` is zero for
         the constant law and ``B_`` is then ``mu``.
     block_values_ : dict
-        Fitted block parameters, ``{block name: {param: value}}``.
+        Fitted free block parameters, ``{block name: {param: value}}`` (what is saved).
+    block_params_ : dict
+        Every block's parameters at the fitted state (the free ones from ``block_values_``):
+        the ``values`` the forward model runs with.
     calibration_ : dict
         Summary of the calibration (loss, optimiser status, evaluations, seconds).
     geometry_ : RobotGeometry
@@ -157,7 +114,7 @@ class CapstanModel(TransmissionModel):
             raise ConfigError("n_starts must be >= 1 and maxeval >= 10")
         if not float(self.warmup_s) >= 0:
             raise ConfigError(f"warmup_s must be a non-negative time in s, got {self.warmup_s!r}")
-        blocks = tuple(_as_block(b) for b in self.blocks)
+        blocks = tuple(as_block(b) for b in self.blocks)
         if sum(b.stage == "propagate" for b in blocks) > 1:
             raise ConfigError("a model can have at most one propagation block (hysteresis)")
         names = [b.name for b in blocks]
@@ -173,7 +130,7 @@ class CapstanModel(TransmissionModel):
     def with_blocks(self, *extra: Block | str) -> CapstanModel:
         """An unfitted copy of this model with ``extra`` blocks added (the diagnosis uses this)."""
         params = {**self.get_params(), "mu_law": self.mu_law}
-        params["blocks"] = tuple(self.block_objects) + tuple(_as_block(b) for b in extra)
+        params["blocks"] = tuple(self.block_objects) + tuple(as_block(b) for b in extra)
         return CapstanModel(**params)
 
     def free_parameters(self) -> list[tuple[str, str, tuple[float, float], float]]:
@@ -189,10 +146,16 @@ class CapstanModel(TransmissionModel):
     @property
     def is_smooth(self) -> bool:
         """True when ``ln T_N`` is linear in the law: no propagation, output or sensor block, no free parameter."""
-        return not any(b.stage in ("propagate", "guide_output", "sensor") for b in self.block_objects) and not self.free_parameters()
+        nonlinear = any(b.stage in ("propagate", "guide_output", "sensor") for b in self.block_objects)
+        return not nonlinear and not self.free_parameters()
 
     # ---- forward model -------------------------------------------------------------
-    def _values(self, overrides: dict | None = None) -> dict[str, dict[str, float]]:
+    def block_params(self, overrides: dict | None = None) -> dict[str, dict[str, float]]:
+        """Every block's parameters ``{block: {param: value}}``: the blocks' own values, updated by ``overrides``.
+
+        This is the ``values`` argument of :meth:`exponent`, :meth:`propagate` and
+        :meth:`terminal_reading`; a fitted model's are :attr:`block_params_`.
+        """
         vals = {b.name: b.initial() for b in self.block_objects}
         for name, d in (overrides or {}).items():
             vals.setdefault(name, {}).update(d)
@@ -200,15 +163,21 @@ class CapstanModel(TransmissionModel):
 
     def exponent_multiplier(self, inputs: TransmissionInputs, values: dict | None = None) -> NDArray:
         """Product of the exponent blocks' factors, shape (T, N-1, 1) (1 where there are none)."""
-        values = self._values() if values is None else values
+        values = self.block_params() if values is None else values
         m = np.ones(inputs.wrap.shape + (1,))
         for b in self.block_objects:
             if b.stage == "exponent":
                 m = b.exponent(m, inputs.wrap, inputs, values.get(b.name, {}))
         return m
 
-    def exponent(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None,
-                 multiplier: NDArray | None = None) -> NDArray:
+    def exponent(
+        self,
+        inputs: TransmissionInputs,
+        A: NDArray,
+        B: NDArray,
+        values: dict | None = None,
+        multiplier: NDArray | None = None,
+    ) -> NDArray:
         """Capstan exponent ``phi[t, k, i]`` (paper Eq. (5) with the blocks), shape (T, N-1, m).
 
         ``A``, ``B`` have shape (G, m) for ``m`` tendons; the constant law uses ``B`` as mu.
@@ -250,7 +219,7 @@ class CapstanModel(TransmissionModel):
         multiplier : ndarray, optional
             Precomputed wrap times exponent multiplier, shape (T, N-1, 1).
         """
-        values = self._values() if values is None else values
+        values = self.block_params() if values is None else values
         n = inputs.n_modules
         sets = np.arange(n) if sets is None else np.asarray(sets)
         tendons = np.arange(3) if tendons is None else np.asarray(tendons)
@@ -275,13 +244,23 @@ class CapstanModel(TransmissionModel):
                 chain[:, g + 1, active] = y
         return chain if keep_chain else log_t
 
-    def terminal_reading(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None,
-                         tendons: NDArray | None = None, multiplier: NDArray | None = None) -> NDArray:
+    def terminal_reading(
+        self,
+        inputs: TransmissionInputs,
+        A: NDArray,
+        B: NDArray,
+        values: dict | None = None,
+        tendons: NDArray | None = None,
+        multiplier: NDArray | None = None,
+    ) -> NDArray:
         """Predicted terminal load-cell reading [N], shape (T, m) (the sensor blocks applied)."""
-        values = self._values() if values is None else values
+        values = self.block_params() if values is None else values
         n = inputs.n_modules
-        t = np.exp(self.propagate(inputs, A, B, values, sets=np.array([n - 1]), tendons=tendons, keep_chain=False,
-                                  multiplier=multiplier)[:, 0])
+        t = np.exp(
+            self.propagate(
+                inputs, A, B, values, sets=np.array([n - 1]), tendons=tendons, keep_chain=False, multiplier=multiplier
+            )[:, 0]
+        )
         for b in self.block_objects:
             if b.stage == "sensor":
                 t = b.sensor(t, inputs, values.get(b.name, {}))
@@ -293,8 +272,6 @@ class CapstanModel(TransmissionModel):
 
         Intermediate joint-side truth is removed before anything is read.
         """
-        from tendon_id.calibration import calibrate_capstan
-
         self._validated()
         recs = [r.fitting_view() for r in as_recordings(data)]
         inputs = TransmissionInputs.from_recordings(recs, self.robot)
@@ -306,33 +283,40 @@ class CapstanModel(TransmissionModel):
         self.n_modules_ = inputs.n_modules
         return self
 
-    def _inputs(self, data) -> TransmissionInputs:
+    def inputs(self, data: Recording | Sequence[Recording]) -> TransmissionInputs:
+        """The arrays the fitted model reads from ``data``, with the geometry it was fitted with.
+
+        Raises ``NotFittedError`` before ``fit``, and ``ConfigError`` for data of another module count.
+        """
         recs = self._check_data(data)
         return TransmissionInputs.from_recordings(recs, self.geometry_)
 
-    def _fitted_values(self) -> dict:
-        return self._values(self.block_values_)
+    @property
+    def block_params_(self) -> dict[str, dict[str, float]]:
+        """Every block's parameters at the fitted state: :attr:`block_values_` over the blocks' own values."""
+        self.check_fitted()
+        return self.block_params(self.block_values_)
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``."""
-        inputs = self._inputs(data)
-        chain = np.exp(self.propagate(inputs, self.A_, self.B_, self._fitted_values()))
+        inputs = self.inputs(data)
+        chain = np.exp(self.propagate(inputs, self.A_, self.B_, self.block_params_))
         chain[:, 0] = inputs.actuator  # the actuator side exactly, not exp(log(.))
         return chain
 
     def predict(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
-        inputs = self._inputs(data)
-        pred = np.exp(self.propagate(inputs, self.A_, self.B_, self._fitted_values(), keep_chain=False))
+        inputs = self.inputs(data)
+        pred = np.exp(self.propagate(inputs, self.A_, self.B_, self.block_params_, keep_chain=False))
         pred[:, 0] = inputs.actuator[:, 0]  # set 1 passes no guide
         return pred
 
     def predict_terminal(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
-        return self.terminal_reading(self._inputs(data), self.A_, self.B_, self._fitted_values())
+        return self.terminal_reading(self.inputs(data), self.A_, self.B_, self.block_params_)
 
     @property
     def mu0_(self) -> NDArray[np.float64]:
         """``mu_i(0) = A_i + B_i``, shape (G, 3): what terminal data pins down best."""
-        self._check_fitted()
+        self.check_fitted()
         return self.A_ + self.B_
 
     # ---- persistence -------------------------------------------------------------------
@@ -368,19 +352,48 @@ class CapstanModel(TransmissionModel):
 def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[CapstanModel]:
     """A registered capstan variant: fixed law and blocks, everything else settable."""
 
-    def __init__(self, tying: str = "tied", robot: dict | None = None, n_starts: int = 3, seed: int = 0,
-                 xtol_rel: float = 1e-3, maxeval: int = 400, warmup_s: float = 0.0, blocks: Sequence[Block | str] = blocks):
-        CapstanModel.__init__(self, mu_law=mu_law, blocks=blocks, tying=tying, robot=robot, n_starts=n_starts,
-                              seed=seed, xtol_rel=xtol_rel, maxeval=maxeval, warmup_s=warmup_s)
+    def __init__(
+        self,
+        tying: str = "tied",
+        robot: dict | None = None,
+        n_starts: int = 3,
+        seed: int = 0,
+        xtol_rel: float = 1e-3,
+        maxeval: int = 400,
+        warmup_s: float = 0.0,
+        blocks: Sequence[Block | str] = blocks,
+    ):
+        CapstanModel.__init__(
+            self,
+            mu_law=mu_law,
+            blocks=blocks,
+            tying=tying,
+            robot=robot,
+            n_starts=n_starts,
+            seed=seed,
+            xtol_rel=xtol_rel,
+            maxeval=maxeval,
+            warmup_s=warmup_s,
+        )
 
     cls = type(name.title().replace("-", ""), (CapstanModel,), {"name": name, "__init__": __init__, "__doc__": doc})
     cls.__module__ = __name__
     return cls
 
 
-CapstanSimple = _preset("capstan-simple", "affine-cosine", (), "Affine-cosine capstan with beta = sigma = 1 (paper Table I, ref. [5]).")
-CapstanContact = _preset("capstan-contact", "affine-cosine", ("contact",), "Affine-cosine capstan with the geometric contact gate (paper ref. [10]).")
+CapstanSimple = _preset(
+    "capstan-simple", "affine-cosine", (), "Affine-cosine capstan with beta = sigma = 1 (paper Table I, ref. [5])."
+)
+CapstanContact = _preset(
+    "capstan-contact",
+    "affine-cosine",
+    ("contact",),
+    "Affine-cosine capstan with the geometric contact gate (paper ref. [10]).",
+)
 CapstanNonsmooth = _preset(
-    "capstan-nonsmooth", "affine-cosine", ("contact", "hysteresis"), "Contact gate plus stick/slip hysteresis (paper ref. [12]): the paper's physics baseline."
+    "capstan-nonsmooth",
+    "affine-cosine",
+    ("contact", "hysteresis"),
+    "Contact gate plus stick/slip hysteresis (paper ref. [12]): the paper's physics baseline.",
 )
 CapstanConstMu = _preset("capstan-const-mu", "constant", (), "The classic constant-mu Euler–Eytelwein capstan.")

@@ -40,7 +40,9 @@ def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None
     else:
         metas = [r.meta.get("robot") for r in recordings]
         if any(m != metas[0] for m in metas):
-            raise ConfigError("recordings come from different robots (their 'robot' metadata differ); pass robot= explicitly")
+            raise ConfigError(
+                "recordings come from different robots (their 'robot' metadata differ); pass robot= explicitly"
+            )
         geometry = RobotGeometry.from_dict(metas[0]) if metas[0] else RobotGeometry(n_modules=n)
     if geometry.n_modules != n:
         raise ConfigError(f"the robot has {geometry.n_modules} modules but the data has {n}")
@@ -108,7 +110,9 @@ class TransmissionInputs:
         return np.cos(self.wrap)
 
     @classmethod
-    def from_recordings(cls, data: Recording | Sequence[Recording], robot: dict | RobotGeometry | None = None) -> TransmissionInputs:
+    def from_recordings(
+        cls, data: Recording | Sequence[Recording], robot: dict | RobotGeometry | None = None
+    ) -> TransmissionInputs:
         """Stack recordings (trajectories kept apart by ``reset``).
 
         Only angles, actuator-side tensions and the terminal labels are read, never

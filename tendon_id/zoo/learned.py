@@ -11,46 +11,20 @@ import torch
 
 from learners.cascade import Cascade, CascadeInputs, StreamingCascade
 from learners.loss import LossWeights
-from learners.presets import UnitConfig, preset as get_preset
-from learners.streaming_native import KernelUnavailable, NativeStreamingCascade, disabled as native_disabled
+from learners.presets import UnitConfig
+from learners.presets import preset as get_preset
+from learners.streaming_native import KernelUnavailable, NativeStreamingCascade
+from learners.streaming_native import disabled as native_disabled
 from learners.training import Sequences, TrainingError, fit_feature_norm, train_two_stage
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
-from tendon_id.progress import progress_bar
-from tendon_id.geometry import RobotGeometry, backbone_wrap
+from tendon_id.geometry import RobotGeometry, sin_q
+from tendon_id.progress import epoch_progress
 from tendon_id.zoo.base import TransmissionModel
+from tendon_id.zoo.features import padded_unit_inputs, unit_inputs
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
-
-
-def resolve_device(device: str, *, float64: bool = False) -> torch.device:
-    """``"auto"``: CUDA when present, else CPU.
-
-    Raises
-    ------
-    ConfigError
-        For a device string torch does not know, or, with ``float64=True`` (PG-CHTC normalises
-        its inputs and sums its chain in float64), a device without float64 such as Apple's MPS.
-    """
-    if device == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    try:
-        dev = torch.device(device)
-    except (RuntimeError, TypeError):
-        raise ConfigError(f"device must be 'auto', 'cpu' or 'cuda[:i]'; got {device!r}") from None
-    if float64 and dev.type not in ("cpu", "cuda"):
-        raise ConfigError(f"PG-CHTC runs on 'cpu' or 'cuda' (it needs float64 for its inputs and chain, which MPS lacks); got {device!r}")
-    return dev
-
-
-def _sin_q(angles: np.ndarray) -> np.ndarray:
-    """``sin(q_k)`` with ``q_k = (theta_k, theta_{k+1})`` (paper Eq. (2)): angles (..., N, 2) in, (..., N-1, 4) out."""
-    s = np.sin(angles)
-    return np.concatenate([s[..., :-1, :], s[..., 1:, :]], axis=-1)
-
-
-def _tqdm_epochs(enable: bool | None):
-    """Epoch-bar factory for the training loop (a bar on a terminal, nothing elsewhere)."""
-    return lambda it, desc: progress_bar(it, desc=desc, enable=enable)
+from tendon_id.zoo.neural import load_weights, resolve_device, weights_array
+from tendon_id.zoo.registry import make
 
 
 class PGCHTC(TransmissionModel):
@@ -98,10 +72,23 @@ class PGCHTC(TransmissionModel):
 
     name = "pg-chtc"
 
-    def __init__(self, preset: str = "fast", physics_reg: bool = True, temporal_residual: bool = True, tied: bool = True,
-                 lam: float = 1.0, lam_s: float = 0.1, eta_w: float = 2.0, prior: str | dict = "capstan-nonsmooth",
-                 window: int | None = None, val_fraction: float = 0.3,
-                 device: str = "auto", seed: int = 0, robot: dict | None = None, progress: bool | None = None):
+    def __init__(
+        self,
+        preset: str = "fast",
+        physics_reg: bool = True,
+        temporal_residual: bool = True,
+        tied: bool = True,
+        lam: float = 1.0,
+        lam_s: float = 0.1,
+        eta_w: float = 2.0,
+        prior: str | dict = "capstan-nonsmooth",
+        window: int | None = None,
+        val_fraction: float = 0.3,
+        device: str = "auto",
+        seed: int = 0,
+        robot: dict | None = None,
+        progress: bool | None = None,
+    ):
         self.preset = preset
         self.physics_reg = physics_reg
         self.temporal_residual = temporal_residual
@@ -136,37 +123,39 @@ class PGCHTC(TransmissionModel):
 
     def _sequences(self, recs: list[Recording], chunk: int, A: np.ndarray, B: np.ndarray, device) -> Sequences:
         inp = self._inputs(recs, self.geometry_)
-        bounds = inp.trajectory_bounds
-        pieces = [(s, min(s + chunk, e)) for s0, e in bounds for s in range(s0, e, chunk)]
-        L = max(e - s for s, e in pieces)
-        n, c = inp.n_modules, len(pieces)
-        sin_q, alpha = _sin_q(inp.angles), inp.wrap
+        pieces = [(s, min(s + chunk, e)) for s0, e in inp.trajectory_bounds for s in range(s0, e, chunk)]
+        n = inp.n_modules
+        arr = padded_unit_inputs(inp, pieces, modules=slice(n - 1, n))  # the cascade's input: set N's tension
+        c, L = arr["alpha"].shape[:2]
+        alpha = inp.wrap
         phys = -(A * np.cos(alpha)[..., None] + B) * alpha[..., None]  # ln r_phys, Eq. (9)
-        arr = {"sin_q": np.zeros((c, L, n - 1, 4)), "alpha": np.zeros((c, L, n - 1)), "act": np.zeros((c, L, 1, 3)),
-               "since": np.zeros((c, L), dtype=np.int64), "term": np.zeros((c, L, 3)), "phys": np.zeros((c, L, n - 1, 3)),
-               "mask": np.zeros((c, L), dtype=bool)}
+        arr.update(
+            since=np.zeros((c, L), dtype=np.int64),
+            term=np.zeros((c, L, 3)),
+            phys=np.zeros((c, L, n - 1, 3)),
+            mask=np.zeros((c, L), dtype=bool),
+        )
         since_all = np.rint(inp.since_start / inp.dt).astype(np.int64)
         for ci, (s, e) in enumerate(pieces):
             m = e - s
-            arr["sin_q"][ci, :m] = sin_q[s:e]
-            arr["alpha"][ci, :m] = alpha[s:e]
-            arr["act"][ci, :m, 0] = np.log(inp.actuator[s:e, n - 1])
             arr["since"][ci, :m] = np.minimum(since_all[s:e], np.arange(m))  # no history before the chunk
             arr["term"][ci, :m] = np.log(inp.terminal[s:e])
             arr["phys"][ci, :m] = phys[s:e]
             arr["mask"][ci, :m] = True
-            arr["act"][ci, m:, 0] = arr["act"][ci, m - 1, 0]  # padding: finite values, masked out of the loss
-            arr["term"][ci, m:] = arr["term"][ci, m - 1]
+            arr["term"][ci, m:] = arr["term"][ci, m - 1]  # padding: finite values, masked out of the loss
         f32 = lambda a: torch.as_tensor(a, dtype=torch.float32, device=device)  # noqa: E731
-        return Sequences(CascadeInputs(f32(arr["sin_q"]), f32(arr["alpha"]), f32(arr["act"]),
-                                       torch.as_tensor(arr["since"], device=device)),
-                         f32(arr["term"]), f32(arr["phys"]), torch.as_tensor(arr["mask"], device=device))
+        return Sequences(
+            CascadeInputs(
+                f32(arr["sin_q"]), f32(arr["alpha"]), f32(arr["act"]), torch.as_tensor(arr["since"], device=device)
+            ),
+            f32(arr["term"]),
+            f32(arr["phys"]),
+            torch.as_tensor(arr["mask"], device=device),
+        )
 
     # ---- estimator API -----------------------------------------------------------------
     def fit(self, data: Recording | Sequence[Recording]) -> PGCHTC:
         """Calibrate the capstan prior, then train the cascade on terminal-only labels (two stages)."""
-        from tendon_id.zoo.registry import make
-
         cfg = self._unit_config()
         recs = [r.fitting_view() for r in as_recordings(data)]
         for r in recs:
@@ -187,36 +176,43 @@ class PGCHTC(TransmissionModel):
             self.prior_A_, self.prior_B_ = law.A_[0].copy(), law.B_[0].copy()
         tr_inp = self._inputs([train], self.geometry_)
         cascade = Cascade(self.n_modules_ - 1, cfg, tied=bool(self.tied))
-        fit_feature_norm(cascade, _sin_q(tr_inp.angles), tr_inp.wrap, np.concatenate([tr_inp.actuator.reshape(-1, 3), tr_inp.terminal]))
+        fit_feature_norm(
+            cascade,
+            sin_q(tr_inp.angles),
+            tr_inp.wrap,
+            np.concatenate([tr_inp.actuator.reshape(-1, 3), tr_inp.terminal]),
+        )
         cascade.to(device)
         tc = get_preset(self.preset).train
         seq_tr = self._sequences([train], tc.chunk2, self.prior_A_, self.prior_B_, device)
         seq_va = self._sequences([val], tc.chunk2, self.prior_A_, self.prior_B_, device)
         try:
-            hist = train_two_stage(cascade, seq_tr, seq_va, tc, self._weights(), seed=self.seed, progress=_tqdm_epochs(self.progress))
+            hist = train_two_stage(
+                cascade, seq_tr, seq_va, tc, self._weights(), seed=self.seed, progress=epoch_progress(self.progress)
+            )
         except TrainingError as exc:
             raise TendonIdError(str(exc)) from None
         self.cascade_ = cascade.cpu().eval()
-        self.history_ = {"stage1": hist.stage1, "stage2": hist.stage2, "best_val1": hist.best_val1, "best_val2": hist.best_val2}
+        self.history_ = {
+            "stage1": hist.stage1,
+            "stage2": hist.stage2,
+            "best_val1": hist.best_val1,
+            "best_val2": hist.best_val2,
+        }
         return self
 
-    def _cascade_inputs(self, recs: list[Recording]) -> tuple[CascadeInputs, list[tuple[int, int]], TransmissionInputs]:
+    def cascade_inputs(self, recs: list[Recording]) -> tuple[CascadeInputs, list[tuple[int, int]], TransmissionInputs]:
+        """The cascade's batch input, one padded row per trajectory, with the trajectories' bounds and inputs."""
         inp = self._inputs(recs, self.geometry_)
         bounds = inp.trajectory_bounds
-        L = max(e - s for s, e in bounds)
-        n, b = inp.n_modules, len(bounds)
-        sin_q, alpha = _sin_q(inp.angles), inp.wrap
-        a = {"sin_q": np.zeros((b, L, n - 1, 4)), "alpha": np.zeros((b, L, n - 1)), "act": np.zeros((b, L, n, 3)),
-             "since": np.zeros((b, L), dtype=np.int64)}
+        a = padded_unit_inputs(inp, bounds)
+        since = np.zeros(a["alpha"].shape[:2], dtype=np.int64)
         for bi, (s, e) in enumerate(bounds):
-            m = e - s
-            a["sin_q"][bi, :m], a["alpha"][bi, :m] = sin_q[s:e], alpha[s:e]
-            a["act"][bi, :m] = np.log(inp.actuator[s:e])
-            a["act"][bi, m:] = a["act"][bi, m - 1]
-            a["since"][bi, :m] = np.arange(m)
-        # float64: the cascade normalises its inputs and sums its chain in float64 (learners.cascade), the units in theirs.
+            since[bi, : e - s] = np.arange(e - s)
+        # float64: the cascade normalises its inputs and sums its chain in float64 (learners.cascade),
+        # the units in theirs.
         f64 = lambda x: torch.as_tensor(x, dtype=torch.float64)  # noqa: E731
-        return CascadeInputs(f64(a["sin_q"]), f64(a["alpha"]), f64(a["act"]), torch.as_tensor(a["since"])), bounds, inp
+        return CascadeInputs(f64(a["sin_q"]), f64(a["alpha"]), f64(a["act"]), torch.as_tensor(since)), bounds, inp
 
     def _check(self, data) -> list[Recording]:
         recs = self._check_data(data)
@@ -225,9 +221,12 @@ class PGCHTC(TransmissionModel):
         return recs
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
-        """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``; batched over trajectories, time and sets."""
+        """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``.
+
+        Batched over trajectories, time and sets.
+        """
         recs = self._check(data)
-        cin, bounds, inp = self._cascade_inputs(recs)
+        cin, bounds, inp = self.cascade_inputs(recs)
         n = inp.n_modules
         with torch.no_grad():
             _, log_ratio = self.cascade_(cin, torch.arange(n))
@@ -243,31 +242,32 @@ class PGCHTC(TransmissionModel):
         return chain
 
     def streamer(self, engine: str = "auto", threads: int | None = None) -> PGCHTCStream:
-        """A frame-by-frame estimator with causal caches (O(1) per frame); see :class:`PGCHTCStream` for ``engine`` and ``threads``."""
-        self._check_fitted()
+        """A frame-by-frame estimator with causal caches (O(1) per frame).
+
+        See :class:`PGCHTCStream` for ``engine`` and ``threads``.
+        """
+        self.check_fitted()
         return PGCHTCStream(self, engine, threads)
 
     # ---- persistence ----------------------------------------------------------------------
     def _state(self):
-        from safetensors.numpy import save
-
-        weights = {k: v.detach().cpu().numpy() for k, v in self.cascade_.state_dict().items()}
-        state = {"n_modules": self.n_modules_, "geometry": self.geometry_.to_dict(), "unit": asdict(self.cascade_.cfg),
-                 "tied": bool(self.cascade_.tied), "prior_A": self.prior_A_.tolist(), "prior_B": self.prior_B_.tolist(),
-                 "history": self.history_}
-        return state, {"weights_safetensors": np.frombuffer(save(weights), dtype=np.uint8)}
+        state = {
+            "n_modules": self.n_modules_,
+            "geometry": self.geometry_.to_dict(),
+            "unit": asdict(self.cascade_.cfg),
+            "tied": bool(self.cascade_.tied),
+            "prior_A": self.prior_A_.tolist(),
+            "prior_B": self.prior_B_.tolist(),
+            "history": self.history_,
+        }
+        return state, weights_array(self.cascade_)
 
     def _restore(self, state, arrays):
-        from safetensors.numpy import load
-
         self.n_modules_ = int(state["n_modules"])
         self.geometry_ = RobotGeometry.from_dict(state["geometry"])
         unit = dict(state["unit"])
         unit["hidden"] = tuple(unit["hidden"])
-        cascade = Cascade(self.n_modules_ - 1, UnitConfig(**unit), tied=bool(state["tied"]))
-        weights = load(arrays["weights_safetensors"].tobytes())
-        cascade.load_state_dict({k: torch.as_tensor(v) for k, v in weights.items()})
-        self.cascade_ = cascade.eval()
+        self.cascade_ = load_weights(Cascade(self.n_modules_ - 1, UnitConfig(**unit), tied=bool(state["tied"])), arrays)
         self.prior_A_, self.prior_B_ = np.asarray(state["prior_A"]), np.asarray(state["prior_B"])
         self.history_ = state.get("history", {})
 
@@ -286,9 +286,9 @@ class PGCHTCStream:
         ``"native"`` runs each frame in a small C kernel compiled once per machine
         (:mod:`learners.streaming_native`); ``"torch"`` in a traced TorchScript graph
         (:class:`~learners.cascade.StreamingCascade`).  Both compute the same frame as batch
-        inference: units in float32, inputs and chain in float64.  ``"auto"`` (default) takes the kernel where it builds and the model is a
-        float32 CPU model, and the torch engine otherwise (with a warning if the kernel
-        failed to build).
+        inference: units in float32, inputs and chain in float64.  ``"auto"`` (default) takes
+        the kernel where it builds and the model is a float32 CPU model, and the torch engine
+        otherwise (with a warning if the kernel failed to build).
     threads : {1, 2}, optional
         Native engine only: 2 computes ``g_phi`` on a helper thread beside ``f_theta`` within
         each frame, with the same result to the bit.  Default: 2 where the model has a temporal
@@ -326,11 +326,8 @@ class PGCHTCStream:
 
     def step(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
         """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out."""
-        sin_q, alpha, log_act = _sin_q(angles), backbone_wrap(angles, self.alpha0), np.log(actuator)
-        if self.engine_name == "native":
-            out = self.engine.step(sin_q, alpha, log_act)
-        else:
-            out = self._torch_step(sin_q, alpha, log_act)
+        frame = unit_inputs(angles, actuator, self.alpha0)
+        out = self.engine.step(*frame) if self.engine_name == "native" else self._torch_step(*frame)
         est = np.exp(out)
         est[0] = actuator[0]
         return est

@@ -1,14 +1,32 @@
-"""The zoo's registry: ``make(name, **params)`` builds a model, ``names()`` lists them."""
+"""The zoo's registry: ``make(name, **params)`` builds a model, ``names()`` lists them.
+
+The built-in models are listed by where they live, not imported: a model's module is
+imported the first time that model is asked for, so ``import tendon_id.zoo`` and the
+analytic models never load torch (the neural ones need it).
+"""
 
 from __future__ import annotations
 
+import importlib
+
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.base import TransmissionModel
-from tendon_id.zoo.baselines import LSTMBaseline, MLPBaseline, TransformerBaseline
-from tendon_id.zoo.capstan import CapstanConstMu, CapstanContact, CapstanModel, CapstanNonsmooth, CapstanSimple, ProximalModel
-from tendon_id.zoo.learned import PGCHTC
 
-_REGISTRY: dict[str, type[TransmissionModel]] = {}
+#: Built-in models: registry name -> ``"module:Class"``, in the order ``names()`` lists them.
+BUILTIN: dict[str, str] = {
+    "proximal": "tendon_id.zoo.proximal:ProximalModel",
+    "capstan-simple": "tendon_id.zoo.capstan:CapstanSimple",
+    "capstan-contact": "tendon_id.zoo.capstan:CapstanContact",
+    "capstan-nonsmooth": "tendon_id.zoo.capstan:CapstanNonsmooth",
+    "capstan-const-mu": "tendon_id.zoo.capstan:CapstanConstMu",
+    "capstan": "tendon_id.zoo.capstan:CapstanModel",
+    "mlp": "tendon_id.zoo.baselines:MLPBaseline",
+    "lstm": "tendon_id.zoo.baselines:LSTMBaseline",
+    "transformer": "tendon_id.zoo.baselines:TransformerBaseline",
+    "pg-chtc": "tendon_id.zoo.learned:PGCHTC",
+}
+
+_REGISTRY: dict[str, type[TransmissionModel] | str] = dict(BUILTIN)
 
 
 def register(cls: type[TransmissionModel]) -> type[TransmissionModel]:
@@ -17,21 +35,35 @@ def register(cls: type[TransmissionModel]) -> type[TransmissionModel]:
     return cls
 
 
-for _cls in (ProximalModel, CapstanSimple, CapstanContact, CapstanNonsmooth, CapstanConstMu, CapstanModel, MLPBaseline, LSTMBaseline,
-             TransformerBaseline, PGCHTC):
-    register(_cls)
-
-
 def names() -> list[str]:
-    """Registered model names, in registration order."""
+    """Registered model names, in registration order (imports no model)."""
     return list(_REGISTRY)
 
 
+def names_of(family: type[TransmissionModel]) -> list[str]:
+    """Registered names whose class is ``family`` or derives from it.
+
+    Built-in models are only imported from ``family``'s own module (listing the capstan
+    family does not load torch); classes registered with :func:`register` are all checked.
+    """
+    out = []
+    for name, entry in _REGISTRY.items():
+        if isinstance(entry, str) and entry.partition(":")[0] != family.__module__:
+            continue
+        if issubclass(model_class(name), family):
+            out.append(name)
+    return out
+
+
 def model_class(name: str) -> type[TransmissionModel]:
-    """The class registered as ``name``."""
+    """The class registered as ``name``, importing its module on first use."""
     if name not in _REGISTRY:
         raise ConfigError(f"unknown model {name!r}; known models: {', '.join(names())}")
-    return _REGISTRY[name]
+    entry = _REGISTRY[name]
+    if isinstance(entry, str):
+        module, _, attr = entry.partition(":")
+        entry = _REGISTRY[name] = getattr(importlib.import_module(module), attr)
+    return entry
 
 
 def make(name: str, **params) -> TransmissionModel:

@@ -38,7 +38,18 @@ def test_simulate_twice_gives_identical_bytes_and_info_reports_it(tmp_path, caps
 
 def test_simulate_csv_with_effects_override(tmp_path, capsys):
     out = tmp_path / "sp.csv"
-    code, msg, err = run(capsys, "simulate", "--protocol", "single-passage", "--effects", "stick_slip,contact", "--frames", "300", "--out", str(out))
+    code, msg, err = run(
+        capsys,
+        "simulate",
+        "--protocol",
+        "single-passage",
+        "--effects",
+        "stick_slip,contact",
+        "--frames",
+        "300",
+        "--out",
+        str(out),
+    )
     assert code == 0, err
     assert out.is_file() and out.with_suffix(".json").is_file()
     meta = json.loads(out.with_suffix(".json").read_text())

@@ -21,7 +21,17 @@ def recording(tmp_path_factory):
 
 
 def test_fit_then_evaluate_json(recording, tmp_path, capsys):
-    code, out, err = run(capsys, "fit", "capstan-contact", "--data", str(recording), "--set", "tying=per-guide", "--out", str(tmp_path / "m"))
+    code, out, err = run(
+        capsys,
+        "fit",
+        "capstan-contact",
+        "--data",
+        str(recording),
+        "--set",
+        "tying=per-guide",
+        "--out",
+        str(tmp_path / "m"),
+    )
     assert code == 0, err
     code, out, err = run(capsys, "evaluate", "--model", str(tmp_path / "m"), "--data", str(recording), "--json")
     assert code == 0, err
@@ -34,7 +44,17 @@ def test_fit_then_evaluate_json(recording, tmp_path, capsys):
 
 
 def test_calibrate_writes_the_documented_files(recording, tmp_path, capsys):
-    code, out, err = run(capsys, "calibrate", "--data", str(recording), "--model", "capstan-simple", "--posterior", "--out", str(tmp_path / "c"))
+    code, out, err = run(
+        capsys,
+        "calibrate",
+        "--data",
+        str(recording),
+        "--model",
+        "capstan-simple",
+        "--posterior",
+        "--out",
+        str(tmp_path / "c"),
+    )
     assert code == 0, err
     cal = json.loads((tmp_path / "c" / "calibration.json").read_text())
     assert cal["model"] == "capstan-simple" and cal["tying"] == "tied"
@@ -47,7 +67,18 @@ def test_calibrate_writes_the_documented_files(recording, tmp_path, capsys):
 
 
 def test_calibrate_per_guide_shapes(recording, tmp_path, capsys):
-    code, _, err = run(capsys, "calibrate", "--data", str(recording), "--model", "capstan-contact", "--tying", "per-guide", "--out", str(tmp_path / "c"))
+    code, _, err = run(
+        capsys,
+        "calibrate",
+        "--data",
+        str(recording),
+        "--model",
+        "capstan-contact",
+        "--tying",
+        "per-guide",
+        "--out",
+        str(tmp_path / "c"),
+    )
     assert code == 0, err
     cal = json.loads((tmp_path / "c" / "calibration.json").read_text())
     assert len(cal["A"]) == 11 and all(len(row) == 3 for row in cal["A"])
@@ -59,7 +90,16 @@ def test_benchmark_table1_json(tmp_path, capsys):
     doc = json.loads((tmp_path / "t1.json").read_text())
     assert doc["benchmark"] == "table1" and doc["preset"] == "fast" and doc["seconds"] > 0
     methods = [r["method"] for r in doc["rows"]]
-    assert methods == ["proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth", "transformer", "lstm", "mlp", "pg-chtc"]
+    assert methods == [
+        "proximal",
+        "capstan-simple",
+        "capstan-contact",
+        "capstan-nonsmooth",
+        "transformer",
+        "lstm",
+        "mlp",
+        "pg-chtc",
+    ]
     for r in doc["rows"]:
         assert r["protocol"] == "single-passage" and set(r["terminal"]) >= {"rmse", "r2", "max_error"}
     assert "capstan-nonsmooth" in out

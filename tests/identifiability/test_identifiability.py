@@ -4,17 +4,20 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 from tendon_id import zoo
-from tendon_id.calibration import LawLayout
 from tendon_id.cli import main
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
-from tendon_id.identifiability import LawProblem, StudySettings, analyse, describe_combination, spectrum
+from tendon_id.identifiability import IdentifiabilityProblem, StudySettings, analyse, describe_combination, spectrum
+from tendon_id.identifiability.learned import learned_comparison
 from tendon_id.identifiability.profile import THRESHOLD_95, profile
 from tendon_id.identifiability.sampler import hit_and_run, split_rhat
+from tendon_id.law_layout import LawLayout
+from tendon_id.report.identifiability import write_report
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
 
@@ -34,12 +37,13 @@ def study(noise_only):
 
 # ---- pieces ---------------------------------------------------------------------------------
 
+
 def test_joint_exponents_reproduce_the_zoo_models_joint_side_predictions(noise_only):
     view = noise_only.fitting_view()
     for tying in ("tied", "per-guide"):
         model = zoo.make("capstan-contact", tying=tying).fit(view)
         inputs = TransmissionInputs.from_recordings([view], model.geometry_)
-        problem = LawProblem.from_model(model, inputs, tying)
+        problem = IdentifiabilityProblem.from_model(model, inputs, tying)
         for i in range(3):
             theta = problem.layout.join(model.A_[:, i], model.B_[:, i])
             ours = inputs.actuator[:, :, i] * np.exp(-problem.joint_exponents(theta[None])[0])
@@ -55,8 +59,10 @@ def test_spectrum_finds_the_rank_and_says_which_sum_is_seen():
     names = ["B_g1_t2", "B_g2_t2", "B_g3_t2", "B_g4_t2", "B_g5_t2"]
     s = spectrum(X.T @ X, names)
     assert s.rank == 3 and s.null_space.shape == (5, 2)
-    assert s.words == ["B of guides 3–5 (tendon 2): 2 free directions; the data sees only 1 combination: "
-                       "only the sum of guides 3–5's B for tendon 2"]
+    assert s.words == [
+        "B of guides 3–5 (tendon 2): 2 free directions; the data sees only 1 combination: "
+        "only the sum of guides 3–5's B for tendon 2"
+    ]
     assert np.isinf(s.sd[2]) and np.isfinite(s.sd[0])
     assert np.isinf(s.condition_number)
 
@@ -121,6 +127,7 @@ def test_settings_validate_themselves():
 
 # ---- the study --------------------------------------------------------------------------------
 
+
 def test_terminal_only_data_leave_the_per_guide_law_rank_deficient_and_the_tied_law_full_rank(study):
     js = study.to_json()
     assert js["tied"]["rank"] == js["tied"]["n_params"] == 6
@@ -168,7 +175,8 @@ def test_the_suggested_joint_narrows_the_band_more_than_the_median_alternative(s
 def test_intermediate_truth_is_never_used_to_fit(noise_only):
     frame = noise_only.frame.copy()
     rng = np.random.default_rng(0)
-    for c in [c for c in frame.columns if c.startswith("tension_joint_") and not c.startswith(f"tension_joint_{noise_only.n_modules}_")]:
+    terminal = f"tension_joint_{noise_only.n_modules}_"
+    for c in [c for c in frame.columns if c.startswith("tension_joint_") and not c.startswith(terminal)]:
         frame[c] = rng.permutation(frame[c].to_numpy())
     scrambled = type(noise_only)(frame, noise_only.meta)
     quick = StudySettings(n_chains=16, n_steps=60, thin=5, band_frames=200, emcee=False, check_advice=False)
@@ -189,6 +197,7 @@ def test_a_misspecified_model_is_reported_as_such():
 
 # ---- the command --------------------------------------------------------------------------------
 
+
 def test_identifiability_command_writes_a_self_contained_report_and_the_design_json(tmp_path, capsys):
     rec = simulate(load_recipe("snake12-noise-only"), "terminal-only", frames=2000, seed=0).recording
     data = rec.write(tmp_path / "to.parquet")
@@ -205,14 +214,18 @@ def test_identifiability_command_writes_a_self_contained_report_and_the_design_j
     assert "wrote" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--data", "missing.parquet", "--out", "r.html"], "missing.parquet"),
-    (["--out", "r.html"], "--data"),
-    (["--data", "DATA", "--out", "r.pdf"], "HTML"),
-    (["--data", "DATA", "--out", "r.html", "--model", "capstan-nonsmooth"], "model"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--data", "missing.parquet", "--out", "r.html"], "missing.parquet"),
+        (["--out", "r.html"], "--data"),
+        (["--data", "DATA", "--out", "r.pdf"], "HTML"),
+        (["--data", "DATA", "--out", "r.html", "--model", "capstan-nonsmooth"], "model"),
+    ],
+)
 def test_identifiability_command_rejects_bad_input_with_exit_2(tmp_path, capsys, args, message):
-    data = simulate(load_recipe("snake12-noise-only"), "terminal-only", frames=200, seed=0).recording.write(tmp_path / "d.parquet")
+    rec = simulate(load_recipe("snake12-noise-only"), "terminal-only", frames=200, seed=0).recording
+    data = rec.write(tmp_path / "d.parquet")
     args = [str(data) if a == "DATA" else (str(tmp_path / a) if a.endswith((".html", ".pdf")) else a) for a in args]
     assert main(["identifiability", *args]) == 2
     err = capsys.readouterr().err
@@ -221,8 +234,6 @@ def test_identifiability_command_rejects_bad_input_with_exit_2(tmp_path, capsys,
 
 
 def test_the_learned_comparison_reports_error_and_seed_spread_for_both_tyings():
-    from tendon_id.identifiability.analysis import learned_comparison
-
     rec = simulate(load_recipe("snake12-noise-only"), "terminal-only", frames=1200, seed=2).recording
     out = learned_comparison([rec.fitting_view()], rec.joint_truth, seeds=2, preset="tiny", progress=False)
     assert set(out) == {"tied", "per_guide"}
@@ -234,8 +245,6 @@ def test_the_learned_comparison_reports_error_and_seed_spread_for_both_tyings():
 
 
 def test_data_without_truth_gets_a_report_with_no_coverage_and_no_check(tmp_path, noise_only):
-    from tendon_id.report.identifiability import write_report
-
     quick = StudySettings(n_chains=16, n_steps=60, thin=5, band_frames=200, emcee=False)
     result = analyse(noise_only.fitting_view(), quick)
     js = result.to_json()

@@ -42,7 +42,7 @@ def test_stick_slip_ratios_stay_in_the_cone_and_sigma_says_which_edge(recipe):
     n = recipe.robot.n_modules
     phi = np.broadcast_to(res_phi(recipe, res), (res.chain.shape[0], n - 1, n, 3))
     r = guide_ratios(res)
-    on_path = (np.arange(1, n)[:, None] < np.arange(1, n + 1)[None, :])
+    on_path = np.arange(1, n)[:, None] < np.arange(1, n + 1)[None, :]
     lo, hi = np.exp(-phi), np.exp(phi)
     rr, ll, hh, sg = r[:, on_path], lo[:, on_path], hi[:, on_path], res.sigma[:, on_path]
     assert np.all(rr >= ll * (1 - 1e-12)) and np.all(rr <= hh * (1 + 1e-12))
@@ -237,5 +237,7 @@ def test_session_holds_what_the_truth_ran_on(recipe, session):
     assert ses.logged.sum() == res.recording.n_frames
     assert (len(ses.logged) > res.recording.n_frames) == (session == "continuous")  # unlogged moves between logs
     np.testing.assert_array_equal(ses.theta[ses.logged], res.theta_true)
-    replay = transmit(ses.theta, ses.actuator, ses.reset, rec.robot_for("posterior-3"), rec.friction, rec.effects, rec.dt)
+    replay = transmit(
+        ses.theta, ses.actuator, ses.reset, rec.robot_for("posterior-3"), rec.friction, rec.effects, rec.dt
+    )
     np.testing.assert_array_equal(replay.chain[ses.logged], res.chain)

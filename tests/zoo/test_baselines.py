@@ -28,7 +28,11 @@ def snake():
 @pytest.fixture(scope="module")
 def fitted(single, snake):
     """Every baseline fitted once (tiny preset) on each rig."""
-    return {(k, n): zoo.make(k, preset="tiny", device="cpu").fit(rec) for k in KINDS for n, rec in ((2, single), (12, snake))}
+    return {
+        (k, n): zoo.make(k, preset="tiny", device="cpu").fit(rec)
+        for k in KINDS
+        for n, rec in ((2, single), (12, snake))
+    }
 
 
 def _scrambled(rec: Recording, seed: int) -> Recording:

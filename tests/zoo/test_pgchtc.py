@@ -6,7 +6,6 @@ import torch
 
 from learners import Cascade, CascadeInputs, preset
 from learners.loss import LossWeights, pgchtc_loss
-from learners.training import TrainingError
 from tendon_id import zoo
 from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
@@ -25,7 +24,9 @@ def data():
 @pytest.fixture(scope="module")
 def fitted(data):
     train, _ = data
-    return zoo.make("pg-chtc", preset="tiny", prior={"A": [0.1, 0.1, 0.1], "B": [0.2, 0.2, 0.2]}, progress=False).fit(train)
+    return zoo.make("pg-chtc", preset="tiny", prior={"A": [0.1, 0.1, 0.1], "B": [0.2, 0.2, 0.2]}, progress=False).fit(
+        train
+    )
 
 
 def test_fit_predict_contract(fitted, data):
@@ -180,7 +181,11 @@ def test_loss_terms_match_eqs_11_to_15():
     data = 0.25 + 0 + 1.0
     phys = 0.01 + 0.09
     smooth = np.exp(-3.0 * 0.25) * 0.04
-    assert parts["data"] == pytest.approx(data) and parts["phys"] == pytest.approx(phys) and parts["smooth"] == pytest.approx(smooth)
+    assert (
+        parts["data"] == pytest.approx(data)
+        and parts["phys"] == pytest.approx(phys)
+        and parts["smooth"] == pytest.approx(smooth)
+    )
     assert float(loss) == pytest.approx(data + 2.0 * phys + 0.5 * smooth)
 
 
@@ -190,7 +195,9 @@ def test_unit_outputs_respect_eq_8_bounds():
     for u in c.units:
         torch.nn.init.normal_(u.residual.head.weight, std=5.0)
     L = 30
-    inp = CascadeInputs(torch.randn(1, L, 3, 4), torch.rand(1, L, 3), torch.log(100 + torch.rand(1, L, 4, 3)), torch.arange(L)[None])
+    inp = CascadeInputs(
+        torch.randn(1, L, 3, 4), torch.rand(1, L, 3), torch.log(100 + torch.rand(1, L, 4, 3)), torch.arange(L)[None]
+    )
     with torch.no_grad():
         _, log_ratio = c(inp, torch.arange(4))
         r_mlp = c.units[0].backbone((torch.randn(50, 8)))
@@ -204,7 +211,9 @@ def test_history_window_is_checked(data):
     short = train.select([train.trajectories[0]]).frame.iloc[:3].copy()
     rec = Recording(short, train.meta)
     with pytest.raises(TendonIdError, match="window|frames"):
-        zoo.make("pg-chtc", preset="tiny", progress=False).fit(Recording.concat([rec, train.select(train.trajectories[1:])]))
+        zoo.make("pg-chtc", preset="tiny", progress=False).fit(
+            Recording.concat([rec, train.select(train.trajectories[1:])])
+        )
 
 
 def test_non_finite_loss_stops_with_a_message(data, monkeypatch):

@@ -31,7 +31,9 @@ def _random_cascade(n, tied, residual, seed=0):
     with torch.no_grad():
         for u in cascade.units:
             u.backbone.head.weight.mul_(0.3)  # ratios near 1, so that the chain does not amplify rounding
-            for bn in (m for m in u.backbone.body if isinstance(m, torch.nn.BatchNorm1d)):  # non-trivial folded BatchNorm
+            for bn in (
+                m for m in u.backbone.body if isinstance(m, torch.nn.BatchNorm1d)
+            ):  # non-trivial folded BatchNorm
                 bn.running_mean.uniform_(-0.2, 0.2)
                 bn.running_var.uniform_(0.5, 2.0)
                 bn.weight.uniform_(0.8, 1.2)
@@ -58,7 +60,9 @@ def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, re
     c64 = Cascade(n - 1, cascade.cfg, tied=tied).double().eval()
     c64.load_state_dict(cascade.state_dict())
     with torch.no_grad():
-        exact, _ = c64(CascadeInputs(sin_q.double(), alpha.double(), log_act.double(), torch.arange(L)[None]), torch.arange(n))
+        exact, _ = c64(
+            CascadeInputs(sin_q.double(), alpha.double(), log_act.double(), torch.arange(L)[None]), torch.arange(n)
+        )
     engine = sn.NativeStreamingCascade(cascade, n, threads=threads)
     out = np.stack([engine.step(sin_q[0, t].numpy(), alpha[0, t].numpy(), log_act[0, t].numpy()) for t in range(L)])
     np.testing.assert_allclose(out, exact[0].numpy(), rtol=0, atol=1e-6)  # measured 2.2e-7 to 5.2e-7
@@ -74,8 +78,14 @@ def test_helper_thread_gives_the_same_bits(kernel, tied):
     n, L = 6, 17
     cascade = _random_cascade(n, tied, True, seed=4)
     g = torch.Generator().manual_seed(2)
-    frames = [(0.2 * torch.randn(n - 1, 4, generator=g).numpy(), (0.05 + 0.3 * torch.rand(n - 1, generator=g)).numpy(),
-               (5.0 + 0.3 * torch.randn(n, 3, generator=g)).numpy()) for _ in range(L)]
+    frames = [
+        (
+            0.2 * torch.randn(n - 1, 4, generator=g).numpy(),
+            (0.05 + 0.3 * torch.rand(n - 1, generator=g)).numpy(),
+            (5.0 + 0.3 * torch.randn(n, 3, generator=g)).numpy(),
+        )
+        for _ in range(L)
+    ]
     one, two = sn.NativeStreamingCascade(cascade, n, threads=1), sn.NativeStreamingCascade(cascade, n, threads=2)
     for f in frames:
         np.testing.assert_array_equal(two.step(*f), one.step(*f))

@@ -33,7 +33,9 @@ def test_registry_lists_every_hypothesis_and_rejects_unknowns():
     with pytest.raises(ConfigError, match="no setting"):
         zoo.make("capstan-simple", bogus=1)
     with pytest.raises(ConfigError, match="tying"):
-        zoo.make("capstan-simple", tying="sometimes").fit(simulate(load_recipe("snake12-paper"), "posterior-3", frames=200).recording)
+        zoo.make("capstan-simple", tying="sometimes").fit(
+            simulate(load_recipe("snake12-paper"), "posterior-3", frames=200).recording
+        )
 
 
 @pytest.mark.parametrize("name", ANALYTIC)

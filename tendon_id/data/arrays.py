@@ -1,0 +1,104 @@
+"""Conversion between named numpy arrays and the columns of a recording (design section 3).
+
+:func:`frame_from_arrays` lays arrays such as ``angles`` (T, N, 2) out as schema columns;
+:func:`column_block` reads columns back as one float64 array of a given shape.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tendon_id.errors import RecordingError
+
+__all__ = ["frame_from_arrays", "column_block"]
+
+
+def column_block(frame: pd.DataFrame, columns: list[str], shape: tuple[int, ...]) -> np.ndarray:
+    """``frame[columns]`` as a fresh C-contiguous float64 array of ``shape`` (missing as NaN)."""
+    a = frame[columns].to_numpy(dtype=np.float64, na_value=np.nan)
+    return np.ascontiguousarray(a).reshape(shape)
+
+
+def frame_from_arrays(
+    *,
+    trajectory: str | Sequence[str] | np.ndarray,
+    t: np.ndarray,
+    angles: np.ndarray,
+    actuator: np.ndarray,
+    terminal: np.ndarray,
+    joint_truth: np.ndarray | None = None,
+    meta: Mapping[str, Any] | None = None,
+    extra: Mapping[str, np.ndarray] | None = None,
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The columns and metadata of a recording built from arrays.
+
+    Parameters are those of :meth:`tendon_id.data.Recording.from_arrays`.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        ``trajectory``, ``t``, the angles, the actuator tensions, the intermediate truth (when
+        given), the terminal tensions, then ``extra``; not yet normalised or validated.
+    meta : dict
+        A copy of ``meta`` with ``n_modules`` defaulting to ``N`` from ``angles``.
+
+    Raises
+    ------
+    RecordingError
+        For arrays of inconsistent shapes, a ``joint_truth`` whose last joint differs from
+        ``terminal``, or an extra column that collides with a schema column.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim != 1:
+        raise RecordingError(f"t must have shape (T,), got {t.shape}", column="t")
+    T = t.shape[0]
+    angles = np.asarray(angles, dtype=np.float64)
+    if angles.ndim != 3 or angles.shape[0] != T or angles.shape[2] != 2 or angles.shape[1] < 1:
+        raise RecordingError(f"angles must have shape (T={T}, N, 2), got {angles.shape}")
+    n = angles.shape[1]
+    actuator = np.asarray(actuator, dtype=np.float64)
+    if actuator.shape != (T, n, 3):
+        raise RecordingError(f"actuator must have shape {(T, n, 3)}, got {actuator.shape}")
+    terminal = np.asarray(terminal, dtype=np.float64)
+    if terminal.shape != (T, 3):
+        raise RecordingError(f"terminal must have shape {(T, 3)}, got {terminal.shape}")
+    if isinstance(trajectory, str):
+        traj = np.full(T, trajectory, dtype=object)
+    else:
+        traj = np.asarray(trajectory).astype(str).astype(object)
+        if traj.shape != (T,):
+            raise RecordingError(f"trajectory must have shape {(T,)}, got {traj.shape}", column="trajectory")
+
+    data: dict[str, np.ndarray] = {"trajectory": traj, "t": t}
+    for k in range(n):
+        data[f"theta_{k + 1}_x"] = angles[:, k, 0]
+        data[f"theta_{k + 1}_y"] = angles[:, k, 1]
+    for j in range(n):
+        for i in range(3):
+            data[f"tension_act_{j + 1}_{i + 1}"] = actuator[:, j, i]
+    if joint_truth is not None:
+        jt = np.asarray(joint_truth, dtype=np.float64)
+        if jt.shape not in ((T, n, 3), (T, n - 1, 3)):
+            raise RecordingError(f"joint_truth must have shape {(T, n, 3)} or {(T, n - 1, 3)}, got {jt.shape}")
+        if jt.shape[1] == n and not np.array_equal(jt[:, n - 1], terminal, equal_nan=True):
+            raise RecordingError("joint_truth[:, N-1] must equal terminal", column=f"tension_joint_{n}_1")
+        for j in range(n - 1):
+            for i in range(3):
+                data[f"tension_joint_{j + 1}_{i + 1}"] = jt[:, j, i]
+    for i in range(3):
+        data[f"tension_joint_{n}_{i + 1}"] = terminal[:, i]
+    for name, values in (extra or {}).items():
+        name = str(name)
+        if name in data:
+            raise RecordingError("extra column collides with a schema column", column=name)
+        values = np.asarray(values)
+        if values.shape != (T,):
+            raise RecordingError(f"extra column must have shape {(T,)}, got {values.shape}", column=name)
+        data[name] = values
+    meta = dict(meta or {})
+    meta.setdefault("n_modules", n)
+    return pd.DataFrame(data), meta

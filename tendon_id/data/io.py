@@ -1,0 +1,243 @@
+"""Reading and writing recordings: Parquet, or CSV plus a sidecar JSON (design section 3).
+
+Metadata is stored as JSON under the key ``b"tendon_id"`` of the Parquet key-value schema
+metadata, or in a sidecar ``.json`` file beside a CSV file (``x.csv`` -> ``x.json``). Files are
+written atomically (:func:`tendon_id.atomic.atomic_write`) and Parquet output is byte-identical
+for identical data and metadata.
+
+The functions here move a DataFrame and a metadata dict to and from files; turning them into
+a :class:`~tendon_id.data.Recording` (normalising, validating) is the caller's job.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tendon_id.atomic import atomic_write
+from tendon_id.data.normalise import PANDAS_COW
+from tendon_id.data.schema import META_KEY
+from tendon_id.errors import RecordingError
+
+__all__ = [
+    "SUFFIXES_PARQUET",
+    "SUFFIXES_CSV",
+    "PARQUET_OPTIONS",
+    "sidecar",
+    "meta_json",
+    "check_suffix",
+    "read_frame",
+    "read_parquet",
+    "read_csv",
+    "write_frame",
+    "write_parquet",
+]
+
+#: File suffixes read and written as Parquet (compared in lower case).
+SUFFIXES_PARQUET = (".parquet", ".pq")
+
+#: File suffixes read and written as CSV with a sidecar JSON (compared in lower case).
+SUFFIXES_CSV = (".csv",)
+
+#: Fixed Parquet writer options: identical data and metadata give byte-identical files.
+PARQUET_OPTIONS: dict[str, Any] = dict(
+    compression="zstd",
+    compression_level=3,
+    use_dictionary=True,
+    write_statistics=True,
+    version="2.6",
+    data_page_version="1.0",
+    row_group_size=1 << 20,
+    store_schema=True,
+)
+
+
+def _json_default(obj: Any) -> Any:
+    # Robot geometry and seeds often arrive as numpy values; store them as plain JSON.
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, (set, frozenset, tuple)):
+        return list(obj)
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[0] if text else type(exc).__name__
+
+
+def meta_json(meta: Mapping[str, Any], **kw: Any) -> str:
+    """Metadata as JSON text: sorted keys, numpy values as plain JSON, no NaN.
+
+    Parameters
+    ----------
+    meta : mapping
+        The metadata.
+    **kw
+        Passed to :func:`json.dumps` (``indent``, ``separators``).
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a value JSON cannot hold (including NaN and inf).
+    """
+    return json.dumps(meta, sort_keys=True, default=_json_default, allow_nan=False, **kw)
+
+
+def sidecar(path: Path) -> Path:
+    """The metadata sidecar of a CSV file: ``x.csv`` -> ``x.json``."""
+    return path.with_suffix(".json")
+
+
+def check_suffix(path: Path) -> str:
+    """Return the lower-case suffix of ``path``; raise RecordingError unless Parquet or CSV."""
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES_PARQUET + SUFFIXES_CSV:
+        raise RecordingError(f"unknown file type '{path.suffix}'; expected .parquet or .csv", file=str(path))
+    return suffix
+
+
+def read_frame(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
+    """Read the data and metadata of a ``.parquet`` (or ``.pq``) or ``.csv`` file.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file. For CSV, metadata is read from :func:`sidecar` when it exists.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        The data as stored (not normalised).
+    meta : dict or None
+        The metadata, or None when the file has none.
+
+    Raises
+    ------
+    RecordingError
+        Naming the file, for an unknown suffix, a missing or unreadable file, or unreadable
+        metadata.
+    """
+    suffix = check_suffix(path)
+    if not path.exists():
+        raise RecordingError("no such file", file=str(path))
+    if path.is_dir():
+        raise RecordingError("is a folder, not a file", file=str(path))
+    if suffix in SUFFIXES_PARQUET:
+        return read_parquet(path)
+    return read_csv(path)
+
+
+def read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
+    """Read a Parquet file: the data, and the metadata under :data:`META_KEY` (or None)."""
+    # pyarrow is imported on use: only Parquet needs it, so CSV users and `import tendon_id.data`
+    # do without it.
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    src = str(path)
+    try:
+        table = pq.read_table(path)
+    except (pa.ArrowException, OSError) as exc:
+        raise RecordingError(f"not a readable Parquet file ({_first_line(exc)})", file=src) from exc
+    raw = (table.schema.metadata or {}).get(META_KEY)
+    meta = None
+    if raw is not None:
+        try:
+            meta = json.loads(raw.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise RecordingError(f"unreadable tendon_id metadata ({_first_line(exc)})", file=src) from exc
+        if not isinstance(meta, dict):
+            raise RecordingError("tendon_id metadata is not a JSON object", file=src)
+    return table.to_pandas(), meta
+
+
+def read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
+    """Read a CSV file, and the metadata of its :func:`sidecar` when it exists (else None)."""
+    src = str(path)
+    try:
+        # Floats written with repr() must read back bit for bit: pandas >= 3 does that by
+        # default (and deprecates the option), older pandas needs "round_trip".
+        extra = {} if PANDAS_COW else {"float_precision": "round_trip"}
+        frame = pd.read_csv(path, dtype={"trajectory": str}, skipinitialspace=True, **extra)
+    except pd.errors.EmptyDataError as exc:
+        raise RecordingError("the file is empty", file=src) from exc
+    except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError) as exc:
+        raise RecordingError(f"not a readable CSV file ({_first_line(exc)})", file=src) from exc
+    side = sidecar(path)
+    meta = None
+    if side.exists():
+        try:
+            meta = json.loads(side.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise RecordingError(f"unreadable metadata sidecar ({_first_line(exc)})", file=str(side)) from exc
+        if not isinstance(meta, dict):
+            raise RecordingError("metadata sidecar is not a JSON object", file=str(side))
+    return frame, meta
+
+
+def write_frame(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> Path:
+    """Write data and metadata atomically to ``.parquet`` (or ``.pq``) or ``.csv`` (+ ``.json``).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The data, in canonical form.
+    meta : mapping
+        The metadata; must be JSON serialisable.
+    path : pathlib.Path
+        Target file; its folder is created if needed.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    RecordingError
+        For an unknown suffix, or data or metadata that cannot be written.
+    """
+    suffix = check_suffix(path)
+    try:
+        meta_text = meta_json(meta, indent=2) + "\n"
+    except (TypeError, ValueError) as exc:
+        raise RecordingError(f"metadata is not JSON serialisable ({_first_line(exc)})", file=str(path)) from exc
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if suffix in SUFFIXES_PARQUET:
+            write_parquet(frame, meta, path)
+        else:
+            # Sidecar first: a reader that sees the new CSV also sees its metadata.
+            atomic_write(sidecar(path), lambda tmp: Path(tmp).write_text(meta_text, encoding="utf-8"))
+            atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, lineterminator="\n", encoding="utf-8"))
+    except OSError as exc:
+        raise RecordingError(f"cannot write ({_first_line(exc)})", file=str(path)) from exc
+    return path
+
+
+def write_parquet(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> None:
+    """Write a Parquet file atomically with :data:`PARQUET_OPTIONS` and only our metadata."""
+    import pyarrow as pa  # on use, as in read_parquet
+    import pyarrow.parquet as pq
+
+    try:
+        table = pa.Table.from_pandas(frame, preserve_index=False)
+    except (pa.ArrowException, TypeError, ValueError) as exc:
+        raise RecordingError(f"cannot convert to Parquet ({_first_line(exc)})", file=str(path)) from exc
+    if "trajectory" in table.column_names:
+        # One string type whatever pandas' string storage is (object, python or pyarrow).
+        idx = table.column_names.index("trajectory")
+        table = table.set_column(idx, "trajectory", table.column(idx).cast(pa.string()))
+    # Only our metadata: pandas' block would tie the bytes to the pandas version.
+    table = table.replace_schema_metadata({META_KEY: meta_json(meta, separators=(",", ":")).encode("utf-8")})
+    atomic_write(path, lambda tmp: pq.write_table(table, tmp, **PARQUET_OPTIONS))

@@ -1,0 +1,468 @@
+"""The :class:`Recording`: one frame-per-row DataFrame plus metadata (design section 3).
+
+The class holds the data and answers questions about it; the work is done by the modules
+beside it: :mod:`~tendon_id.data.normalise` (input into canonical form),
+:mod:`~tendon_id.data.validation` (the rules), :mod:`~tendon_id.data.io` (files),
+:mod:`~tendon_id.data.arrays` (arrays <-> columns), :mod:`~tendon_id.data.select` (selection
+by trajectory) and :mod:`~tendon_id.data.summary`.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tendon_id.data import validation
+from tendon_id.data.arrays import column_block, frame_from_arrays
+from tendon_id.data.io import read_frame, write_frame
+from tendon_id.data.normalise import float_column, infer_sample_rate, normalise_frame, normalise_meta
+from tendon_id.data.schema import (
+    META_ORDER,
+    act_columns,
+    hidden_truth_columns,
+    infer_n_modules,
+    joint_columns,
+    theta_columns,
+    truth_columns,
+)
+from tendon_id.data.select import concat_frames, select_rows, split_trajectories, unique_trajectories
+from tendon_id.data.summary import summarise
+
+__all__ = ["Recording"]
+
+
+class Recording:
+    """One recording: a frame-per-row DataFrame plus metadata (design section 3).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        One row per frame, with the columns listed in :func:`column_names`. Extra columns are
+        kept and ignored. The frame is copied (lazily under pandas copy-on-write), its index is
+        reset, canonical columns are put first, ``trajectory`` is converted to str and the
+        numeric schema columns to float64.
+    meta : mapping, optional
+        Metadata: ``schema_version`` (int), ``n_modules`` (int; inferred from the columns when
+        missing), ``sample_rate_hz`` (float [Hz]; when missing, inferred from the median time step,
+        else 10.0), ``protocol`` (str or None), ``robot`` (dict or None), ``recipe`` (str or None),
+        ``effects`` (list of str), ``seed`` (int or None). Unknown keys are kept.
+    source : str, optional
+        File the data came from; named in error messages.
+    validate : bool, default True
+        Run :meth:`validate`.
+
+    Raises
+    ------
+    RecordingError
+        When the metadata or, with ``validate``, the data is invalid. The error names the file,
+        the column and the 0-based frame row of the first offending value.
+
+    Notes
+    -----
+    Treat :attr:`frame` as read-only. The array accessors return fresh float64 arrays in SI
+    units: angles in rad, tensions in N, time in s.
+    """
+
+    __slots__ = ("_frame", "_meta", "_source")
+
+    def __init__(
+        self,
+        frame: pd.DataFrame,
+        meta: Mapping[str, Any] | None = None,
+        *,
+        source: str | None = None,
+        validate: bool = True,
+    ):
+        if not isinstance(frame, pd.DataFrame):
+            raise TypeError(f"frame must be a pandas DataFrame, got {type(frame).__name__}")
+        self._source = None if source is None else str(source)
+        meta = normalise_meta(meta, self._source)
+        frame = normalise_frame(frame, meta, self._source)
+        self._frame = frame
+        if meta["n_modules"] is None:
+            meta["n_modules"] = infer_n_modules(list(frame.columns))[0]
+        if meta["sample_rate_hz"] is None:
+            meta["sample_rate_hz"] = infer_sample_rate(frame)
+        self._meta = {k: meta[k] for k in META_ORDER}
+        self._meta.update({k: v for k, v in meta.items() if k not in self._meta})
+        if validate:
+            self.validate()
+
+    # ---- properties -----------------------------------------------------------------------
+
+    @property
+    def frame(self) -> pd.DataFrame:
+        """pandas.DataFrame : The data, one row per frame. Treat as read-only."""
+        return self._frame
+
+    @property
+    def meta(self) -> dict[str, Any]:
+        """dict : A copy of the metadata (keys ``schema_version``, ``n_modules``, ...)."""
+        return copy.deepcopy(self._meta)
+
+    @property
+    def source(self) -> str | None:
+        """str or None : The file this recording was read from, named in error messages."""
+        return self._source
+
+    @property
+    def n_modules(self) -> int:
+        """int : Number of modules ``N``."""
+        return self._meta["n_modules"]
+
+    @property
+    def n_frames(self) -> int:
+        """int : Number of frames (rows) ``T``."""
+        return len(self._frame)
+
+    def __len__(self) -> int:
+        return len(self._frame)
+
+    @property
+    def trajectories(self) -> list[str]:
+        """list of str : Trajectory ids in order of first appearance."""
+        return unique_trajectories(self._frame)
+
+    @property
+    def protocol(self) -> str | None:
+        """str or None : The motion protocol (design section 5), if known."""
+        return self._meta["protocol"]
+
+    @property
+    def sample_rate_hz(self) -> float:
+        """float : Sample rate [Hz]."""
+        return float(self._meta["sample_rate_hz"])
+
+    @property
+    def dt(self) -> float:
+        """float : Nominal sample period ``1 / sample_rate_hz`` [s]."""
+        return 1.0 / self.sample_rate_hz
+
+    @property
+    def time(self) -> np.ndarray:
+        """ndarray, shape (T,) : Time within each trajectory [s]."""
+        return np.array(float_column(self._frame, "t"), dtype=np.float64, copy=True)
+
+    @property
+    def trajectory_ids(self) -> np.ndarray:
+        """ndarray of str, shape (T,) : Trajectory id of every frame."""
+        return self._frame["trajectory"].to_numpy().astype(str)
+
+    @property
+    def angles(self) -> np.ndarray:
+        """ndarray, shape (T, N, 2) : Joint angles [rad]; ``[:, k-1]`` = ``(theta_k_x, theta_k_y)``."""
+        n = self.n_modules
+        return column_block(self._frame, theta_columns(n), (self.n_frames, n, 2))
+
+    @property
+    def actuator(self) -> np.ndarray:
+        """ndarray, shape (T, N, 3) : Actuator-side tensions ``T[1, j, i]`` [N]; ``[:, j-1, i-1]``."""
+        n = self.n_modules
+        return column_block(self._frame, act_columns(n), (self.n_frames, n, 3))
+
+    @property
+    def terminal(self) -> np.ndarray:
+        """ndarray, shape (T, 3) : Terminal joint-side tensions ``T[N, N, :]`` [N] (the label)."""
+        return column_block(self._frame, joint_columns(self.n_modules), (self.n_frames, 3))
+
+    @property
+    def has_truth(self) -> bool:
+        """bool : True when every intermediate truth column ``tension_joint_{j}_{i}``, j < N, exists."""
+        cols = self._frame.columns
+        return all(c in cols for c in truth_columns(self.n_modules))
+
+    @property
+    def joint_truth(self) -> np.ndarray | None:
+        """ndarray, shape (T, N, 3), or None : Joint-side tensions ``T[j, j, :]`` [N].
+
+        Row ``j-1`` is joint ``j``; ``[:, N-1]`` is the terminal label. None unless all
+        intermediate truth columns are present (simulated data only).
+        """
+        if not self.has_truth:
+            return None
+        n = self.n_modules
+        cols = truth_columns(n) + joint_columns(n)
+        return column_block(self._frame, cols, (self.n_frames, n, 3))
+
+    @property
+    def trajectory_starts(self) -> np.ndarray:
+        """ndarray of bool, shape (T,) : True on the first frame of each trajectory."""
+        return validation.trajectory_starts(self._frame["trajectory"].to_numpy())
+
+    def __repr__(self) -> str:
+        src = f", source={self._source!r}" if self._source else ""
+        try:
+            n_traj = len(self.trajectories)
+        except KeyError:
+            n_traj = "?"
+        truth = self.has_truth if self.n_modules else False
+        return (
+            f"Recording(n_modules={self.n_modules}, n_frames={self.n_frames}, "
+            f"trajectories={n_traj}, truth={truth}{src})"
+        )
+
+    # ---- constructors and IO ---------------------------------------------------------------
+
+    @classmethod
+    def from_arrays(
+        cls,
+        *,
+        trajectory: str | Sequence[str] | np.ndarray,
+        t: np.ndarray,
+        angles: np.ndarray,
+        actuator: np.ndarray,
+        terminal: np.ndarray,
+        joint_truth: np.ndarray | None = None,
+        meta: Mapping[str, Any] | None = None,
+        extra: Mapping[str, np.ndarray] | None = None,
+    ) -> "Recording":
+        """Build a recording from arrays.
+
+        Parameters
+        ----------
+        trajectory : str or array-like of str, shape (T,)
+            Trajectory id of each frame, or one id for all frames.
+        t : array-like, shape (T,)
+            Time within each trajectory [s].
+        angles : array-like, shape (T, N, 2)
+            Joint angles [rad].
+        actuator : array-like, shape (T, N, 3)
+            Actuator-side tensions [N].
+        terminal : array-like, shape (T, 3)
+            Terminal joint-side tensions [N].
+        joint_truth : array-like, shape (T, N, 3) or (T, N-1, 3), optional
+            Joint-side truth [N]; row ``j-1`` is joint ``j``. With N rows, the last must equal
+            ``terminal``.
+        meta : mapping, optional
+            Metadata; ``n_modules`` defaults to ``N`` from ``angles``.
+        extra : mapping of str to array-like of shape (T,), optional
+            Extra columns to carry along.
+
+        Returns
+        -------
+        Recording
+        """
+        frame, meta = frame_from_arrays(
+            trajectory=trajectory,
+            t=t,
+            angles=angles,
+            actuator=actuator,
+            terminal=terminal,
+            joint_truth=joint_truth,
+            meta=meta,
+            extra=extra,
+        )
+        return cls(frame, meta)
+
+    @classmethod
+    def read(cls, path: str | os.PathLike, *, validate: bool = True) -> "Recording":
+        """Read a recording from ``.parquet`` (or ``.pq``) or ``.csv`` (plus sidecar ``.json``).
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file. For CSV, metadata is read from ``path.with_suffix(".json")`` when it
+            exists; otherwise ``n_modules`` is inferred from the columns and defaults are used.
+        validate : bool, default True
+            Validate the data.
+
+        Returns
+        -------
+        Recording
+
+        Raises
+        ------
+        RecordingError
+            Naming the file, for a missing or unreadable file, an unknown suffix, bad metadata
+            or invalid data.
+        """
+        path = Path(path)
+        frame, meta = read_frame(path)
+        return cls(frame, meta, source=str(path), validate=validate)
+
+    def write(self, path: str | os.PathLike) -> Path:
+        """Write the recording atomically to ``.parquet`` (or ``.pq``) or ``.csv`` (+ ``.json``).
+
+        Each file is written to a temporary file in the same folder, then renamed over the
+        target, so readers never see a partial file. Parquet output is byte-identical for
+        identical data and metadata (fixed writer options, no timestamps, no pandas metadata).
+
+        Parameters
+        ----------
+        path : str or path-like
+            Target file; its folder is created if needed. For CSV the metadata goes to
+            ``path.with_suffix(".json")``.
+
+        Returns
+        -------
+        pathlib.Path
+            The path written.
+
+        Raises
+        ------
+        RecordingError
+            For an unknown suffix, or data or metadata that cannot be written.
+        """
+        return write_frame(self._frame, self._meta, Path(path))
+
+    # ---- selection -------------------------------------------------------------------------
+
+    def _derive(self, frame: pd.DataFrame) -> "Recording":
+        """A recording on a subset of this one's (already validated) data."""
+        return Recording(frame, self._meta, source=self._source, validate=False)
+
+    def select(self, trajectories: Sequence[str]) -> "Recording":
+        """Recording with only the given trajectories, in this recording's row order.
+
+        Parameters
+        ----------
+        trajectories : sequence of str
+            Trajectory ids; each must exist.
+
+        Returns
+        -------
+        Recording
+            Same metadata and source. Rows in its errors refer to the selection.
+        """
+        return self._derive(select_rows(self._frame, trajectories, source=self._source))
+
+    def split(self, fractions: Sequence[float] = (0.7, 0.3), *, seed: int = 0) -> tuple["Recording", ...]:
+        """Split by trajectory, never by frame.
+
+        Trajectories are shuffled with ``numpy.random.default_rng(seed)`` and dealt out in
+        proportion to ``fractions`` (largest remainder, at least one trajectory per part).
+
+        Parameters
+        ----------
+        fractions : sequence of float, default (0.7, 0.3)
+            Positive fractions of the trajectories for each part, summing to 1.
+        seed : int, default 0
+            Seed of the shuffle; the split is deterministic for a seed.
+
+        Returns
+        -------
+        tuple of Recording
+            One per fraction, disjoint in trajectories, each non-empty.
+
+        Raises
+        ------
+        RecordingError
+            When there are fewer trajectories than parts.
+        ConfigError
+            For fractions that are not positive or do not sum to 1.
+        """
+        parts = split_trajectories(self.trajectories, fractions, seed=seed, source=self._source)
+        return tuple(self.select(ids) for ids in parts)
+
+    @staticmethod
+    def concat(recordings: Sequence["Recording"]) -> "Recording":
+        """Stack recordings of the same robot size.
+
+        Intermediate truth columns are kept only where every input has them; extra columns
+        missing from some inputs are filled with NaN. Metadata comes from the first input;
+        ``protocol``, ``recipe``, ``seed`` and ``robot`` become None where the inputs differ, and
+        ``effects`` is the union in order of first appearance.
+
+        Parameters
+        ----------
+        recordings : sequence of Recording
+            Same ``n_modules`` and ``sample_rate_hz``; trajectory ids must not collide.
+
+        Returns
+        -------
+        Recording
+
+        Raises
+        ------
+        RecordingError
+            For an empty sequence, different ``n_modules`` or sample rates, or a trajectory id
+            that appears in two inputs.
+        """
+        frame, meta = concat_frames(recordings, Recording)
+        return Recording(frame, meta)
+
+    def fitting_view(self) -> "Recording":
+        """A copy without the intermediate truth columns, for a model's ``fit``.
+
+        Every ``tension_joint_{j}_{i}`` with ``j < N`` is removed, so code handed this view is
+        structurally unable to read intermediate ground truth (``has_truth`` is False,
+        ``joint_truth`` is None). The terminal label ``tension_joint_{N}_{i}`` is kept.
+
+        Returns
+        -------
+        Recording
+        """
+        hidden = hidden_truth_columns(self._frame.columns, self.n_modules)
+        return self._derive(self._frame.drop(columns=hidden))
+
+    def with_meta(self, **updates: Any) -> "Recording":
+        """A recording with the same data and some metadata keys replaced.
+
+        Parameters
+        ----------
+        **updates
+            Metadata keys and their new values.
+
+        Returns
+        -------
+        Recording
+        """
+        meta = self.meta
+        meta.update(updates)
+        return Recording(self._frame, meta, source=self._source, validate="n_modules" in updates)
+
+    # ---- validation and summary ------------------------------------------------------------
+
+    def validate(self) -> None:
+        """Check the recording against the schema; raise on the first problem.
+
+        Checks, in order: empty recording; duplicate, missing or inconsistently numbered
+        columns and a ``n_modules`` that does not match them; non-numeric values; missing or
+        empty trajectory ids; a trajectory split into non-contiguous blocks; NaN or inf values;
+        non-positive tensions; angles that look like degrees (``|angle| > pi``); time that does
+        not strictly increase within a trajectory. Checks are vectorised (per column); see
+        :func:`tendon_id.data.validation.validate`.
+
+        Raises
+        ------
+        RecordingError
+            Naming the file, the column and the 0-based frame row of the first offending value.
+        """
+        validation.validate(self._frame, self._meta["n_modules"], source=self._source)
+
+    def check_history_window(self, h: int) -> None:
+        """Check that every trajectory has at least ``h`` frames.
+
+        Parameters
+        ----------
+        h : int
+            History window of a learned model [frames].
+
+        Raises
+        ------
+        RecordingError
+            Naming the first too-short trajectory (row: its first frame).
+        """
+        validation.check_history_window(self._frame, h, source=self._source)
+
+    def summary(self) -> dict[str, Any]:
+        """A JSON-serialisable summary, for ``tendon-id info``.
+
+        Returns
+        -------
+        dict
+            ``n_modules``, ``n_frames``, ``n_trajectories``, ``trajectories`` (id -> frames),
+            ``duration_s`` (sum over trajectories of last minus first time plus ``dt`` [s]),
+            ``protocol``, ``sample_rate_hz``, ``ranges`` (``{"min", "max"}`` of ``angle_rad``,
+            ``angle_deg``, ``actuator_n``, ``terminal_n``), ``truth`` (``terminal``: True,
+            ``intermediate``: all intermediate truth present, ``intermediate_joints``: the
+            joints ``j < N`` whose truth is present), ``effects``, ``recipe``, ``seed``,
+            ``source``.
+        """
+        return summarise(self)

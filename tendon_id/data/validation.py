@@ -1,0 +1,344 @@
+"""Input validation of a recording: one small function per rule of design section 3.
+
+Each ``check_*`` function raises :class:`~tendon_id.errors.RecordingError` naming the file
+(``source``), the column and the 0-based frame row of the first offending value, and returns
+nothing (or the value it had to compute anyway). :func:`validate` runs them in order, so the
+first problem in that order is the one reported. Checks are vectorised per column.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tendon_id.data.normalise import float_column, is_int, is_real_dtype
+from tendon_id.data.schema import (
+    TENDONS,
+    TENSION_RE,
+    THETA_RE,
+    column_names,
+    infer_n_modules,
+    module_index,
+    required_columns,
+    theta_columns,
+    truth_columns,
+)
+from tendon_id.errors import ConfigError, RecordingError
+
+__all__ = [
+    "trajectory_starts",
+    "check_not_empty",
+    "check_numbering",
+    "check_n_modules",
+    "check_required_columns",
+    "check_numeric",
+    "check_trajectory_ids",
+    "check_contiguous_trajectories",
+    "check_finite",
+    "check_positive_tensions",
+    "check_angles_in_rad",
+    "check_time_increases",
+    "check_history_window",
+    "validate",
+]
+
+
+def _first_true(mask: np.ndarray) -> int | None:
+    if mask.size and mask.any():
+        return int(mask.argmax())
+    return None
+
+
+def _short(value: Any, width: int = 40) -> str:
+    r = repr(value)
+    return r if len(r) <= width else r[: width - 3] + "..."
+
+
+def _first_hit(arrays: Mapping[str, np.ndarray], test: Callable[[np.ndarray], np.ndarray]) -> tuple[str, int] | None:
+    """Earliest row where ``test`` holds, then the first such column in the mapping's order."""
+    best: tuple[str, int] | None = None
+    for c, a in arrays.items():
+        row = _first_true(test(a))
+        if row is not None and (best is None or row < best[1]):
+            best = (c, row)
+            if row == 0:
+                break
+    return best
+
+
+def trajectory_starts(ids: np.ndarray) -> np.ndarray:
+    """ndarray of bool, shape (T,): True on the first frame of each block of equal ``ids``."""
+    starts = np.ones(len(ids), dtype=bool)
+    if len(ids) > 1:
+        starts[1:] = ids[1:] != ids[:-1]
+    return starts
+
+
+def check_not_empty(frame: pd.DataFrame, *, source: str | None = None) -> None:
+    """Raise when the recording has no frames."""
+    if len(frame) == 0:
+        raise RecordingError("the recording is empty (no frames)", file=source)
+
+
+def check_numbering(columns: Sequence[str], *, source: str | None = None) -> None:
+    """Raise for a schema column numbered from 0 or with a tendon outside 1..3."""
+    for c in columns:
+        m = THETA_RE.match(c)
+        k = int(m.group(1)) if m else None
+        m2 = TENSION_RE.match(c)
+        if m2:
+            k = int(m2.group(2))
+            if int(m2.group(3)) not in TENDONS:
+                raise RecordingError("inconsistent numbering: tendons are numbered 1..3", file=source, column=c)
+        if k == 0:
+            raise RecordingError("inconsistent numbering: modules are numbered from 1", file=source, column=c)
+
+
+def check_n_modules(columns: Sequence[str], n_modules: int | None, *, source: str | None = None) -> int:
+    """Check that ``n_modules`` matches the columns; return ``N``.
+
+    Parameters
+    ----------
+    columns : sequence of str
+        Column names of the recording.
+    n_modules : int or None
+        ``N`` from the metadata; None takes it from the columns.
+    source : str, optional
+        File named in the error.
+
+    Returns
+    -------
+    int
+        The number of modules ``N``.
+
+    Raises
+    ------
+    RecordingError
+        When no module-numbered column exists, or the largest module index among the columns
+        differs from ``n_modules`` (naming the first column beyond ``N``, or the first required
+        column missing).
+    """
+    cols = list(columns)
+    inferred, by = infer_n_modules(cols)
+    n = n_modules
+    if inferred is None:
+        missing = "trajectory" if "trajectory" not in cols else "t" if "t" not in cols else "theta_1_x"
+        raise RecordingError(
+            "missing required column; no theta_/tension_ columns found, so the number of modules cannot be inferred",
+            file=source,
+            column=missing,
+        )
+    if n is None:
+        n = inferred
+    if n != inferred:
+        if inferred > n:
+            column = next((c for c in column_names(inferred) if c in cols and (module_index(c) or 0) > n), by)
+        else:
+            column = next(c for c in required_columns(n) if c not in cols)
+        raise RecordingError(
+            f"n_modules is {n} in the metadata but the columns describe {inferred} modules", file=source, column=column
+        )
+    return n
+
+
+def check_required_columns(columns: Sequence[str], n_modules: int, *, source: str | None = None) -> None:
+    """Raise for the first required column (see :func:`required_columns`) that is missing.
+
+    Extra columns are fine: they are kept and ignored.
+    """
+    cols = list(columns)
+    for c in required_columns(n_modules):
+        if c not in cols:
+            why = "" if c in ("trajectory", "t") else f" (n_modules is {n_modules})"
+            raise RecordingError(f"missing required column{why}", file=source, column=c)
+
+
+def check_numeric(frame: pd.DataFrame, columns: Sequence[str], *, source: str | None = None) -> None:
+    """Raise for the first of ``columns`` whose dtype is not integer or floating.
+
+    The row named is the first value that does not parse as a number (None when every value
+    does, e.g. a bool column).
+    """
+    for c in columns:
+        s = frame[c]
+        if not is_real_dtype(s.dtype):
+            coerced = (
+                pd.to_numeric(s, errors="coerce")
+                if s.dtype.kind in ("O", "U", "S", "T") or pd.api.types.is_string_dtype(s.dtype)
+                else pd.Series(np.nan, index=s.index)
+            )
+            bad = (coerced.isna() & s.notna()).to_numpy()
+            row = _first_true(bad)
+            value = f" {_short(s.iloc[row])}" if row is not None else ""
+            raise RecordingError(
+                f"non-numeric value{value} (dtype {s.dtype}); expected numbers", file=source, column=c, row=row
+            )
+
+
+def check_trajectory_ids(frame: pd.DataFrame, *, source: str | None = None) -> np.ndarray:
+    """Raise for a missing or empty trajectory id; return the ids as a str array, shape (T,)."""
+    tr = frame["trajectory"]
+    row = _first_true(tr.isna().to_numpy())
+    if row is not None:
+        raise RecordingError("missing trajectory id", file=source, column="trajectory", row=row)
+    ids = tr.to_numpy().astype(str)
+    row = _first_true(np.char.str_len(ids) == 0) if ids.dtype.kind == "U" else None
+    if row is not None:
+        raise RecordingError("empty trajectory id", file=source, column="trajectory", row=row)
+    return ids
+
+
+def check_contiguous_trajectories(ids: np.ndarray, *, source: str | None = None) -> None:
+    """Raise when a trajectory id appears in two separate blocks of rows (row: the second block)."""
+    start_rows = np.flatnonzero(trajectory_starts(ids))
+    block_ids = pd.Series(ids[start_rows])
+    dup = block_ids.duplicated().to_numpy()
+    if dup.any():
+        b = int(dup.argmax())
+        raise RecordingError(
+            f"trajectory '{block_ids.iloc[b]}' appears in two separate blocks of rows; "
+            "each trajectory must be one contiguous block",
+            file=source,
+            column="trajectory",
+            row=int(start_rows[b]),
+        )
+
+
+def check_finite(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:
+    """Raise for a NaN or inf value in any of the float64 ``arrays`` (column name -> values).
+
+    The earliest row is reported, then the first column in the mapping's order.
+    """
+    hit = _first_hit(arrays, lambda a: ~np.isfinite(a))
+    if hit:
+        c, row = hit
+        v = arrays[c][row]
+        raise RecordingError("NaN value" if np.isnan(v) else f"infinite value ({v})", file=source, column=c, row=row)
+
+
+def check_positive_tensions(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:
+    """Raise for a tension <= 0 N in any of the float64 tension ``arrays`` [N] (earliest row first)."""
+    hit = _first_hit(arrays, lambda a: a <= 0)
+    if hit:
+        c, row = hit
+        raise RecordingError(
+            f"non-positive tension {arrays[c][row]:g} N; tensions must be > 0 N", file=source, column=c, row=row
+        )
+
+
+def check_angles_in_rad(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:
+    """Raise for ``|angle| > pi`` in any of the float64 angle ``arrays`` [rad]: likely degrees."""
+    hit = _first_hit(arrays, lambda a: np.abs(a) > np.pi)
+    if hit:
+        c, row = hit
+        raise RecordingError(
+            f"|angle| = {abs(arrays[c][row]):g} > pi looks like degrees; angles must be in rad",
+            file=source,
+            column=c,
+            row=row,
+        )
+
+
+def check_time_increases(t: np.ndarray, ids: np.ndarray, *, source: str | None = None) -> None:
+    """Raise where time [s] does not strictly increase within a trajectory.
+
+    Parameters
+    ----------
+    t : ndarray, shape (T,)
+        Time [s], float64.
+    ids : ndarray, shape (T,)
+        Trajectory id of every frame; time may restart where the id changes.
+    source : str, optional
+        File named in the error.
+    """
+    starts = trajectory_starts(ids)
+    bad = np.zeros(len(t), dtype=bool)
+    bad[1:] = (np.diff(t) <= 0) & ~starts[1:]
+    row = _first_true(bad)
+    if row is not None:
+        raise RecordingError(
+            f"time does not increase within trajectory '{ids[row]}' (t = {t[row]:g} s after {t[row - 1]:g} s)",
+            file=source,
+            column="t",
+            row=row,
+        )
+
+
+def check_history_window(frame: pd.DataFrame, h: int, *, source: str | None = None) -> None:
+    """Raise when a trajectory has fewer than ``h`` frames (row: its first frame).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        A validated recording's frame.
+    h : int
+        History window of a learned model [frames].
+    source : str, optional
+        File named in the error.
+
+    Raises
+    ------
+    ConfigError
+        When ``h`` is not a positive integer.
+    RecordingError
+        Naming the first too-short trajectory.
+    """
+    if not is_int(h) or h < 1:
+        raise ConfigError(f"history window must be a positive integer, got {h!r}")
+    starts = np.flatnonzero(trajectory_starts(frame["trajectory"].to_numpy()))
+    lengths = np.diff(np.append(starts, len(frame)))
+    short = np.flatnonzero(lengths < h)
+    if short.size:
+        s = int(short[0])
+        tid = str(frame["trajectory"].iloc[int(starts[s])])
+        raise RecordingError(
+            f"trajectory '{tid}' has {int(lengths[s])} frames, fewer than the history window of {int(h)} frames",
+            file=source,
+            column="trajectory",
+            row=int(starts[s]),
+        )
+
+
+def validate(frame: pd.DataFrame, n_modules: int | None = None, *, source: str | None = None) -> None:
+    """Check a normalised frame against the schema; raise on the first problem.
+
+    Runs, in order: :func:`check_not_empty`, :func:`check_numbering`, :func:`check_n_modules`,
+    :func:`check_required_columns`, :func:`check_numeric`, :func:`check_trajectory_ids`,
+    :func:`check_contiguous_trajectories`, :func:`check_finite`,
+    :func:`check_positive_tensions`, :func:`check_angles_in_rad`, :func:`check_time_increases`.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The data, normalised by :func:`~tendon_id.data.normalise.normalise_frame`.
+    n_modules : int, optional
+        ``N`` from the metadata; None takes it from the columns.
+    source : str, optional
+        File named in the errors.
+
+    Raises
+    ------
+    RecordingError
+        Naming the file, the column and the 0-based frame row of the first offending value.
+    """
+    check_not_empty(frame, source=source)
+    cols = list(frame.columns)
+    check_numbering(cols, source=source)
+    n = check_n_modules(cols, n_modules, source=source)
+    check_required_columns(cols, n, source=source)
+    numeric = [c for c in required_columns(n) if c != "trajectory"]
+    numeric += [c for c in truth_columns(n) if c in frame.columns]
+    check_numeric(frame, numeric, source=source)
+
+    ids = check_trajectory_ids(frame, source=source)
+    check_contiguous_trajectories(ids, source=source)
+
+    # Finite values first, so the sign and range checks below see numbers only.
+    arrays = {c: float_column(frame, c) for c in numeric}
+    check_finite(arrays, source=source)
+    check_positive_tensions({c: a for c, a in arrays.items() if c.startswith("tension_")}, source=source)
+    check_angles_in_rad({c: arrays[c] for c in theta_columns(n)}, source=source)
+    check_time_increases(arrays["t"], ids, source=source)

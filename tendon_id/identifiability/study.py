@@ -1,0 +1,170 @@
+"""One tying's identifiability study: fit, Fisher spectrum, profiles and exact posterior draws (DESIGN §12).
+
+:func:`study_tying` runs it on an :class:`~tendon_id.identifiability.problem.IdentifiabilityProblem`
+and returns a :class:`TyingStudy`, whose :meth:`~TyingStudy.to_dict` is the ``tied`` /
+``per_guide`` part of the study's JSON.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.identifiability.band import Band
+from tendon_id.identifiability.problem import IdentifiabilityProblem
+from tendon_id.identifiability.profile import Profile, profile
+from tendon_id.identifiability.sampler import split_rhat
+from tendon_id.identifiability.settings import StudySettings
+from tendon_id.identifiability.spectrum import Spectrum, spectrum
+
+
+@dataclass
+class TyingStudy:
+    """Everything about one tying (``tied`` or ``per-guide``), per tendon where it applies."""
+
+    tying: str
+    problem: IdentifiabilityProblem = field(repr=False)
+    theta: list[NDArray]
+    sigma: list[float]
+    spectra: list[Spectrum]
+    profiles: list[list[Profile]]
+    draws: list[NDArray] = field(repr=False)
+    rhat: list[float] = field(default_factory=list)
+    band: Band | None = field(default=None, repr=False)
+
+    @property
+    def n_params(self) -> int:
+        return 3 * self.problem.n_params
+
+    @property
+    def rank(self) -> int:
+        return sum(s.rank for s in self.spectra)
+
+    @property
+    def unidentifiable(self) -> list[str]:
+        return [w for s in self.spectra for w in s.words]
+
+    def mu0_sd(self) -> NDArray:
+        """Linearised sd of each group's ``mu(0)``, worst over tendons, shape (G,)."""
+        g = self.problem.n_groups
+        out = np.zeros(g)
+        for s in self.spectra:
+            for k in range(g):
+                v = np.zeros(2 * g)
+                v[k] = v[g + k] = 1.0
+                out[k] = max(out[k], s.combination_sd(v))
+        return out
+
+    def posterior_summary(self) -> dict:
+        """Posterior mean, sd and 95 % interval of every parameter and ``mu(0)`` from the draws."""
+        out = {}
+        g = self.problem.n_groups
+        for i, d in enumerate(self.draws):
+            names = self.problem.names(i)
+            mu0 = d[:, :g] + d[:, g:]
+            cols = np.concatenate([d, mu0], axis=1)
+            labels = names + [n.replace("A", "mu0", 1) for n in names[:g]]
+            q = np.percentile(cols, [2.5, 97.5], axis=0)
+            for k, n in enumerate(labels):
+                out[n] = {
+                    "mean": float(cols[:, k].mean()),
+                    "sd": float(cols[:, k].std(ddof=1)),
+                    "q2.5": float(q[0, k]),
+                    "q97.5": float(q[1, k]),
+                }
+        return out
+
+    def correlation(self, tendon: int) -> NDArray:
+        """Posterior correlation matrix of one tendon's law (from the draws)."""
+        d = self.draws[tendon]
+        sd = d.std(axis=0)
+        c = np.corrcoef(d.T) if np.all(sd > 0) else np.full((d.shape[1],) * 2, np.nan)
+        return np.atleast_2d(c)
+
+    def to_dict(self) -> dict:
+        conds = [s.condition_number for s in self.spectra]
+        full = all(np.isfinite(conds))
+        return {
+            "n_params": self.n_params,
+            "rank": self.rank,
+            "n_unidentifiable": self.n_params - self.rank,
+            "condition_number": float(max(conds)) if full else None,
+            "condition_number_identifiable": float(max(s.identifiable_condition_number for s in self.spectra)),
+            "unidentifiable": self.unidentifiable,
+            "well_determined": [w for s in self.spectra for w in s.determined],
+            "residual_sigma_n": [float(s) for s in self.sigma],
+            "per_tendon": [
+                {
+                    "tendon": i + 1,
+                    "rank": s.rank,
+                    "n_params": s.n_params,
+                    "fisher_eigenvalues": [float(e) for e in s.eigenvalues],
+                    "linearised_sd": {n: (float(v) if np.isfinite(v) else None) for n, v in zip(s.names, s.sd)},
+                    "profiles": {p.name: p.to_dict() for p in self.profiles[i]},
+                }
+                for i, s in enumerate(self.spectra)
+            ],
+            "profile_verdicts": _count([p.verdict for ps in self.profiles for p in ps]),
+            "posterior": self.posterior_summary(),
+            "sampler_rhat_max": [float(r) for r in self.rhat],
+        }
+
+
+def _count(items: list[str]) -> dict[str, int]:
+    """How often each item occurs, in first-seen order."""
+    out: dict[str, int] = {}
+    for x in items:
+        out[x] = out.get(x, 0) + 1
+    return out
+
+
+def study_tying(problem: IdentifiabilityProblem, settings: StudySettings, rng_seed: int) -> TyingStudy:
+    """Fit, spectrum, profiles and exact posterior draws of every tendon's law under one tying.
+
+    Per tendon: the weighted constrained fit, the residual noise, the Fisher spectrum of
+    the quadratic likelihood, profile likelihoods of every parameter and every group's
+    ``mu(0) = A + B``, and hit-and-run draws from dispersed starts with their split R-hat.
+    """
+    thetas, sigmas, spectra, profiles, draws, rhats = [], [], [], [], [], []
+    layout = problem.layout
+    C, d = layout.constraints()
+    g = problem.n_groups
+    for i in range(3):
+        theta = problem.fit(i)
+        sigma = max(problem.residual_sigma(theta, i), 1e-9)
+        M, b, c0 = problem.quadratic(i, sigma)
+        names = problem.names(i)
+        s = spectrum(M, names)
+        profs = []
+        for k, name in enumerate(names):
+            e = np.zeros(len(names))
+            e[k] = 1.0
+            profs.append(
+                profile(M, b, c0, theta, e, layout, name, sd=float(s.sd[k]), structural=not np.isfinite(s.sd[k]))
+            )
+        for k in range(g):
+            e = np.zeros(len(names))
+            e[k] = e[g + k] = 1.0
+            sd_e = s.combination_sd(e)
+            profs.append(
+                profile(
+                    M,
+                    b,
+                    c0,
+                    theta,
+                    e,
+                    layout,
+                    names[k].replace("A", "mu0", 1),
+                    sd=sd_e,
+                    structural=not np.isfinite(sd_e),
+                )
+            )
+        draws.append(settings.sample(M, b, C, d, theta, layout, rng_seed + i))
+        rhats.append(float(np.max(split_rhat(draws[-1][:, :g] + draws[-1][:, g:], settings.n_chains))))
+        thetas.append(theta)
+        sigmas.append(sigma)
+        spectra.append(s)
+        profiles.append(profs)
+    return TyingStudy(problem.tying, problem, thetas, sigmas, spectra, profiles, draws, rhats)

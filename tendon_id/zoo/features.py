@@ -1,0 +1,77 @@
+"""The unit inputs of the cascade (paper Eq. (7)), built in one place for batch and streaming use.
+
+A PG-CHTM unit at guide ``k`` reads ``sin(q_k)`` (Eq. (2)), the backbone wrap ``alpha_k``
+(Eq. (3)) and the log of the tension entering the guide; the learned models of the zoo take
+them from here, per frame (:func:`unit_inputs`) or padded per trajectory for a batch
+(:func:`padded_unit_inputs`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.geometry import backbone_wrap, sin_q
+from tendon_id.zoo.inputs import TransmissionInputs
+
+
+def unit_inputs(angles: NDArray, actuator: NDArray, alpha_0: float) -> tuple[NDArray, NDArray, NDArray]:
+    """One frame's (or a stack of frames') unit inputs.
+
+    Parameters
+    ----------
+    angles : ndarray, shape (..., N, 2)
+        Joint angles [rad].
+    actuator : ndarray, shape (..., N, 3)
+        Actuator-side tensions ``T[1, j, i]`` [N].
+    alpha_0 : float
+        Routing wrap [rad].
+
+    Returns
+    -------
+    sin_q : ndarray, shape (..., N-1, 4)
+    alpha : ndarray, shape (..., N-1)
+        Backbone wrap [rad].
+    log_actuator : ndarray, shape (..., N, 3)
+        ``ln T[1, j, i]`` [ln N].
+    """
+    return sin_q(angles), backbone_wrap(angles, alpha_0), np.log(actuator)
+
+
+def padded_unit_inputs(
+    inputs: TransmissionInputs, pieces: Sequence[tuple[int, int]], modules: slice = slice(None)
+) -> dict[str, NDArray]:
+    """Unit inputs of frame ranges ``pieces`` stacked into a zero-padded batch.
+
+    Parameters
+    ----------
+    inputs : TransmissionInputs
+    pieces : sequence of (start, end)
+        Frame ranges, one batch row each (trajectories, or chunks of them).
+    modules : slice
+        Which sets' actuator-side tensions to keep (all by default).
+
+    Returns
+    -------
+    dict
+        ``"sin_q"`` (B, L, N-1, 4), ``"alpha"`` (B, L, N-1) [rad] and ``"act"`` (B, L, M, 3)
+        ``ln T[1, j, i]``, with ``L`` the longest piece. Padding is zero, except ``"act"``, which
+        repeats the last frame so that its logarithms stay finite (padding is masked out).
+    """
+    length = max(e - s for s, e in pieces)
+    n, b = inputs.n_modules, len(pieces)
+    n_sets = len(range(n)[modules])
+    sq, alpha = sin_q(inputs.angles), inputs.wrap
+    out = {
+        "sin_q": np.zeros((b, length, n - 1, 4)),
+        "alpha": np.zeros((b, length, n - 1)),
+        "act": np.zeros((b, length, n_sets, 3)),
+    }
+    for row, (s, e) in enumerate(pieces):
+        m = e - s
+        out["sin_q"][row, :m], out["alpha"][row, :m] = sq[s:e], alpha[s:e]
+        out["act"][row, :m] = np.log(inputs.actuator[s:e, modules])
+        out["act"][row, m:] = out["act"][row, m - 1]
+    return out
