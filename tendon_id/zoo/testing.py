@@ -68,16 +68,17 @@ def clone(model: TransmissionModel) -> TransmissionModel:
 
 def _check_fit_and_unfitted_errors(model: TransmissionModel, train: Recording, test: Recording) -> TransmissionModel:
     fresh = clone(model)
-    for what, call in (
-        ("predict", lambda: fresh.predict(test)),
-        ("predict_chain", lambda: fresh.predict_chain(test)),
-        ("save", lambda: fresh.save(Path(tempfile.gettempdir()) / "never-written")),
-    ):
-        try:
-            call()
-        except NotFittedError:
-            continue
-        raise AssertionError(f"{model.name}: {what} before fit must raise NotFittedError")
+    with tempfile.TemporaryDirectory() as tmp:  # a model that wrongly saves unfitted writes only here
+        for what, call in (
+            ("predict", lambda: fresh.predict(test)),
+            ("predict_chain", lambda: fresh.predict_chain(test)),
+            ("save", lambda: fresh.save(Path(tmp) / "unfitted")),
+        ):
+            try:
+                call()
+            except NotFittedError:
+                continue
+            raise AssertionError(f"{model.name}: {what} before fit must raise NotFittedError")
     assert fresh.fit(train) is fresh, f"{model.name}: fit must return self"
     return fresh
 
