@@ -13,7 +13,7 @@ from tendon_id.errors import ConfigError
 from tendon_id.posterior import sample_posterior
 from tendon_id.report.html import pyplot
 from tendon_id.zoo.capstan import CapstanModel
-from tendon_id.zoo.registry import make
+from tendon_id.zoo.registry import make, model_class, names_of
 
 
 def calibration_json(model: CapstanModel, recordings: Sequence[Recording]) -> dict:
@@ -38,12 +38,11 @@ def run_calibration(
     recordings: Sequence[Recording], *, model: str, tying: str, posterior: bool, out: str | Path, seed: int = 0
 ) -> list[Path]:
     """Calibrate, write ``calibration.json`` (and with ``posterior``, ``posterior.json`` and ``corner.png``)."""
-    m = make(model, tying=tying, seed=seed) if model != "proximal" else None
-    if not isinstance(m, CapstanModel):
+    if not issubclass(model_class(model), CapstanModel):
         raise ConfigError(
-            f"--model {model}: calibration needs a capstan-family model "
-            "(capstan-simple, capstan-contact, capstan-nonsmooth, capstan-const-mu)"
+            f"--model {model}: calibration needs a capstan-family model ({', '.join(names_of(CapstanModel))})"
         )
+    m = make(model, tying=tying, seed=seed)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     m.fit(recordings)

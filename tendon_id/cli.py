@@ -17,12 +17,12 @@ from typing import Optional
 
 import typer
 
-from tendon_id.benchmarks.registry import BENCHMARKS
+from tendon_id.benchmarks.registry import BENCHMARKS, PRESETS
 from tendon_id.errors import TendonIdError
 from tendon_id.extras import require_extra
 from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
-from tendon_id.zoo.capstan import CapstanModel
+from tendon_id.zoo.capstan import TYINGS, CapstanModel
 from tendon_id.zoo.registry import names as model_names
 from tendon_id.zoo.registry import names_of
 
@@ -167,7 +167,7 @@ def calibrate(
     model: str = typer.Option(
         "capstan-nonsmooth", "--model", help=f"A capstan-family model: {_one_of(names_of(CapstanModel))}."
     ),
-    tying: str = typer.Option("tied", "--tying", help="tied or per-guide."),
+    tying: str = typer.Option("tied", "--tying", help=f"{_one_of(TYINGS)}."),
     posterior: bool = typer.Option(False, "--posterior", help="Also sample the emcee posterior."),
     out: Path = typer.Option(..., "--out", help="Output folder: calibration.json (+ posterior.json, corner.png)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the multi-start and of the sampler."),
@@ -188,7 +188,7 @@ def calibrate(
 )
 def benchmark(
     name: str = typer.Argument(..., help=f"{_one_of(BENCHMARKS)}."),
-    preset: str = typer.Option("fast", "--preset", help="fast or paper (size of the learned models)."),
+    preset: str = typer.Option("fast", "--preset", help=f"{_one_of(PRESETS)} (size of the learned models)."),
     recipe: Optional[str] = typer.Option(None, "--recipe", help="Recipe (default: the benchmark's own)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the first data split."),
     repeats: Optional[int] = typer.Option(

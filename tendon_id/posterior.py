@@ -145,7 +145,7 @@ class PosteriorResult:
 
     def corner(self, truths: Sequence[float] | None = None):
         """Corner plot of the law parameters (``corner`` package); returns the figure."""
-        # corner (and matplotlib) are the optional ``posterior`` extra: imported when a plot is asked for.
+        # corner is the optional ``posterior`` extra, and the Agg backend is process-wide: both on use.
         import corner
         import matplotlib
 

@@ -169,7 +169,9 @@ def test_importing_the_diagnostics_silences_only_arvizs_refactor_notice(tmp_path
         )
 
     raw = run("import arviz")
-    assert raw.returncode != 0 and "ArviZ is undergoing a major refactor" in raw.stderr
+    if raw.returncode == 0:
+        pytest.skip("this ArviZ does not warn on import (only recent 0.2x releases do)")
+    assert "ArviZ is undergoing a major refactor" in raw.stderr
     (tmp_path / "cache").mkdir(exist_ok=True)
     for stamp in (tmp_path / "cache").rglob("daily_warning"):
         stamp.unlink()  # the failed import may have stamped today

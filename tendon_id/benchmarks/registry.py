@@ -21,6 +21,10 @@ class Benchmark:
     run: str
     format: str
 
+    def __call__(self, **kwargs) -> dict:
+        """Run the benchmark (as the plain function this registry held before it was lazy)."""
+        return self.resolve(self.run)(**kwargs)
+
     @staticmethod
     def resolve(path: str) -> Callable:
         module, _, attr = path.partition(":")
@@ -57,18 +61,13 @@ BENCHMARKS: dict[str, Benchmark] = {
 PRESETS = ("fast", "paper")
 
 
-def describe() -> str:
-    """One line per benchmark, ``name: summary`` (for help texts)."""
-    return "; ".join(f"{name}: {b.summary}" for name, b in BENCHMARKS.items())
-
-
 def run_benchmark(name: str, *, preset: str = "fast", **kwargs) -> dict:
     """Run benchmark ``name`` and return its JSON object (DESIGN §10)."""
     if name not in BENCHMARKS:
         raise ConfigError(f"unknown benchmark {name!r}; known: {', '.join(BENCHMARKS)}")
     if preset not in PRESETS:
         raise ConfigError(f"unknown preset {preset!r}; known: {', '.join(PRESETS)}")
-    return Benchmark.resolve(BENCHMARKS[name].run)(preset=preset, **kwargs)
+    return BENCHMARKS[name](preset=preset, **kwargs)
 
 
 def format_table(result: dict) -> str:

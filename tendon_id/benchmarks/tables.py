@@ -52,7 +52,7 @@ def model_factory(preset: str, seed: int = 0) -> Callable:
     def build(method: str):
         name, params = ROW_MODELS.get(method, (method, {}))
         cls = make(name).__class__
-        extra = {k: v for k, v in (("preset", preset), ("seed", seed), ("progress", False)) if k in cls._param_names()}
+        extra = {k: v for k, v in (("preset", preset), ("seed", seed), ("progress", False)) if k in cls.param_names()}
         return make(name, **{**extra, **params})
 
     return build

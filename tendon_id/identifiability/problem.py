@@ -25,10 +25,8 @@ from tendon_id import problem as law_problem
 from tendon_id.errors import ConfigError
 from tendon_id.optimize import minimize
 from tendon_id.problem import constrained_lstsq
-from tendon_id.zoo.capstan import CapstanModel
+from tendon_id.zoo.capstan import TYINGS, CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
-
-TYINGS = ("tied", "per-guide")
 
 
 @dataclasses.dataclass(frozen=True)

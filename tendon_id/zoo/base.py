@@ -41,7 +41,8 @@ class TransmissionModel(abc.ABC):
 
     # ---- parameters -------------------------------------------------------------
     @classmethod
-    def _param_names(cls) -> list[str]:
+    def param_names(cls) -> list[str]:
+        """Names of the settings ``__init__`` takes (scikit-learn's ``_get_param_names``)."""
         sig = inspect.signature(cls.__init__)
         return [
             p for p in sig.parameters if p != "self" and sig.parameters[p].kind is not inspect.Parameter.VAR_KEYWORD
@@ -49,11 +50,11 @@ class TransmissionModel(abc.ABC):
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         """The settings given to ``__init__``."""
-        return {p: getattr(self, p) for p in self._param_names()}
+        return {p: getattr(self, p) for p in self.param_names()}
 
     def set_params(self, **params: Any) -> TransmissionModel:
         """Change settings; unknown names are an error. Returns ``self``."""
-        known = set(self._param_names())
+        known = set(self.param_names())
         for k, v in params.items():
             if k not in known:
                 raise ConfigError(f"{self.name} has no setting {k!r}; settings: {', '.join(sorted(known))}")

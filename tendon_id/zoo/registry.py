@@ -47,9 +47,9 @@ def names_of(family: type[TransmissionModel]) -> list[str]:
     family does not load torch); classes registered with :func:`register` are all checked.
     """
     out = []
-    for name, entry in _REGISTRY.items():
-        if isinstance(entry, str) and entry.partition(":")[0] != family.__module__:
-            continue
+    for name in _REGISTRY:
+        if name in BUILTIN and BUILTIN[name].partition(":")[0] != family.__module__:
+            continue  # the same answer whether or not that module is loaded yet
         if issubclass(model_class(name), family):
             out.append(name)
     return out
@@ -69,7 +69,7 @@ def model_class(name: str) -> type[TransmissionModel]:
 def make(name: str, **params) -> TransmissionModel:
     """Build an unfitted model; ``params`` are its settings (see its class)."""
     cls = model_class(name)
-    known = cls._param_names()
+    known = cls.param_names()
     unknown = sorted(set(params) - set(known))
     if unknown:
         raise ConfigError(f"model {name!r} has no setting(s) {unknown}; its settings: {', '.join(known)}")

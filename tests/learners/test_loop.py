@@ -116,19 +116,26 @@ def test_training_loss_is_averaged_over_steps_or_the_given_batch_count(per_epoch
 def test_only_the_given_parameters_move_and_train_mode_is_the_callers():
     net, x, y = _toy()
     frozen = net.bias.detach().clone()
-    modes = []
+    modes, training = [], []
+    loss = _mse(net, x, y)
+
+    def batch_loss(b):
+        training.append(net.training)  # the mode the caller's hook chose, not the loop's
+        return loss(b)
+
     schedule = LoopSchedule(lr=0.05, epochs=2, patience=5, weight_decay=0.1)
     run_training(
         net,
         [net.weight],
         schedule,
         batches=lambda: [torch.arange(8)],
-        batch_loss=_mse(net, x, y),
+        batch_loss=batch_loss,
         validate=None,
         train_mode=lambda: modes.append(net.eval()),
     )
     assert torch.equal(net.bias, frozen)
     assert len(modes) == 2
+    assert training == [False, False]
 
 
 @pytest.mark.parametrize("parts, shown", [({"data": 1.0}, "(parts {'data': 1.0})"), (None, "")])

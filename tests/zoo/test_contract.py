@@ -25,7 +25,7 @@ def fast_settings(name: str) -> dict:
         return {}
     if issubclass(cls, zoo.CapstanModel):
         return FAST["capstan"]
-    return {k: v for k, v in FAST["neural"].items() if k in cls._param_names()}
+    return {k: v for k, v in FAST["neural"].items() if k in cls.param_names()}
 
 
 @pytest.fixture(scope="module")
@@ -103,3 +103,12 @@ def test_importing_the_zoo_and_fitting_a_capstan_model_do_not_import_torch():
         "zoo.make('pg-chtc')\nassert 'torch' in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_names_of_a_family_does_not_depend_on_what_is_loaded():
+    before = zoo.names_of(zoo.CapstanModel)
+    for name in zoo.names():
+        zoo.model_class(name)  # load every module
+    assert zoo.names_of(zoo.CapstanModel) == before
+    assert before == ["capstan-simple", "capstan-contact", "capstan-nonsmooth", "capstan-const-mu", "capstan"]
+    assert zoo.names_of(zoo.ProximalModel) == ["proximal"]
