@@ -56,11 +56,13 @@ def delta_method_weight(t_in: NDArray, t_out: NDArray) -> NDArray[np.float64]:
     return 1.0 / (1.0 / t_in**2 + 1.0 / t_out**2)
 
 
-def constrained_lstsq(X: NDArray, y: NDArray, layout: LawLayout, xtol_rel: float = 1e-10) -> Outcome:
+def constrained_lstsq(
+    X: NDArray, y: NDArray, layout: LawLayout, xtol_rel: float = 1e-10, x0: NDArray | None = None
+) -> Outcome:
     """Least squares ``min |y - X x|^2`` over the law's feasible set, with SLSQP on the exact quadratic.
 
     The objective ``x^T X^T X x - 2 (X^T y)^T x + y^T y`` and its gradient are built once from
-    ``X^T X``; the start is the unconstrained solution moved into the feasible set.
+    ``X^T X``; the start is ``x0``, else the unconstrained solution moved into the feasible set.
 
     Parameters
     ----------
@@ -71,11 +73,14 @@ def constrained_lstsq(X: NDArray, y: NDArray, layout: LawLayout, xtol_rel: float
         Bounds and linear constraints of the law.
     xtol_rel : float
         Relative parameter tolerance of nlopt.
+    x0 : ndarray, shape (p,), optional
+        A feasible start.
     """
     M, b, c = X.T @ X, X.T @ y, float(y @ y)
     cons = layout.constraints()
     lb, ub = layout.bounds()
-    x0 = layout.project(np.linalg.lstsq(X, y, rcond=None)[0])
+    if x0 is None:
+        x0 = layout.project(np.linalg.lstsq(X, y, rcond=None)[0])
     return minimize(
         lambda x: float(x @ M @ x - 2.0 * b @ x + c),
         x0,

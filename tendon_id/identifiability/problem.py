@@ -23,7 +23,6 @@ from numpy.typing import NDArray
 
 from tendon_id import problem as law_problem
 from tendon_id.errors import ConfigError
-from tendon_id.optimize import minimize
 from tendon_id.problem import constrained_lstsq
 from tendon_id.zoo.capstan import TYINGS, CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
@@ -93,21 +92,7 @@ class IdentifiabilityProblem(law_problem.LawProblem):
         if self.tying == "per-guide":
             a, b = dataclasses.replace(self, tying="tied").fit(tendon)
             start = self.layout.join(np.full(self.n_groups, a), np.full(self.n_groups, b))
-            M, q = X.T @ X, X.T @ y
-            C, d = self.layout.constraints()
-            lb, ub = self.layout.bounds()
-            other = minimize(
-                lambda x: float(x @ M @ x - 2.0 * q @ x + y @ y),
-                start,
-                lb=lb,
-                ub=ub,
-                grad=lambda x: 2.0 * (M @ x - q),
-                ineq=lambda x: C @ x - d,
-                ineq_jac=C,
-                project=self.layout.project,
-                xtol_rel=1e-10,
-                maxeval=10000,
-            )
+            other = constrained_lstsq(X, y, self.layout, 1e-10, x0=start)
             if other.feasible and other.f < best.f:
                 best = other
         return best.x

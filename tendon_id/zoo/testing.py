@@ -126,7 +126,7 @@ def _check_round_trip(model: TransmissionModel, test: Recording, pred: np.ndarra
 def _check_scrambled_truth_changes_nothing(
     model: TransmissionModel, train: Recording, test: Recording, pred: np.ndarray, seed: int
 ) -> None:
-    other = clone(model).fit(_scrambled_truth(train, seed))
+    other = clone(model).fit(scrambled_truth(train, seed))
     assert _same_bits(other.predict(test), pred), (
         f"{model.name}: scrambling the intermediate joint-side truth of the training data changed the predictions; "
         "a model must fit on terminal labels only"
@@ -149,8 +149,11 @@ def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
-def _scrambled_truth(rec: Recording, seed: int) -> Recording:
-    """``rec`` with random intermediate joint-side truth (kept or added), the terminal label unchanged."""
+def scrambled_truth(rec: Recording, seed: int) -> Recording:
+    """``rec`` with random intermediate joint-side truth [N] (kept or added), the terminal label unchanged.
+
+    A model fitted on it must predict exactly what it predicts when fitted on ``rec``.
+    """
     rng = np.random.default_rng(seed)
     n = rec.n_modules
     truth = rng.uniform(1.0, 400.0, size=(rec.n_frames, n, 3))

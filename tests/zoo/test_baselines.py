@@ -12,6 +12,7 @@ from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.sim import simulate
+from tendon_id.zoo.testing import scrambled_truth
 
 
 @pytest.fixture(scope="module")
@@ -33,15 +34,6 @@ def fitted(single, snake):
         for k in KINDS
         for n, rec in ((2, single), (12, snake))
     }
-
-
-def _scrambled(rec: Recording, seed: int) -> Recording:
-    frame = rec.frame.copy()
-    rng = np.random.default_rng(seed)
-    for j in range(1, rec.n_modules):
-        for i in range(1, 4):
-            frame[f"tension_joint_{j}_{i}"] = rng.uniform(1.0, 400.0, size=len(frame))
-    return Recording(frame, rec.meta)
 
 
 def test_registered_in_the_zoo():
@@ -102,7 +94,7 @@ def test_save_load_predicts_identically_without_pickle(fitted, single, snake, tm
 @pytest.mark.parametrize("kind", KINDS)
 def test_fit_does_not_read_intermediate_truth(fitted, snake, kind):
     a = fitted[(kind, 12)]
-    b = zoo.make(kind, preset="tiny", device="cpu").fit(_scrambled(snake, 1))
+    b = zoo.make(kind, preset="tiny", device="cpu").fit(scrambled_truth(snake, 1))
     sa, sb = a.net_.state_dict(), b.net_.state_dict()
     assert sa.keys() == sb.keys()
     for k in sa:

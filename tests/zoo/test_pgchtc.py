@@ -11,6 +11,7 @@ from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.sim import simulate
+from tendon_id.zoo.testing import scrambled_truth
 
 
 @pytest.fixture(scope="module")
@@ -147,12 +148,7 @@ def test_save_load_predict_identical_with_safetensors(fitted, data, tmp_path):
 
 def test_scrambled_intermediate_truth_changes_nothing(data):
     train, test = data
-    frame = train.frame.copy()
-    rng = np.random.default_rng(0)
-    for j in range(1, train.n_modules):
-        for i in range(1, 4):
-            frame[f"tension_joint_{j}_{i}"] = rng.uniform(1, 300, size=len(frame))
-    scrambled = Recording(frame, train.meta)
+    scrambled = scrambled_truth(train, 0)
     kw = dict(preset="tiny", prior={"A": [0.1, 0.1, 0.1], "B": [0.2, 0.2, 0.2]}, progress=False)
     a = zoo.make("pg-chtc", **kw).fit(train)
     b = zoo.make("pg-chtc", **kw).fit(scrambled)

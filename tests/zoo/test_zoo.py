@@ -9,11 +9,11 @@ from scipy.optimize import lsq_linear
 
 from tendon_id import zoo
 from tendon_id.calibration import linear_design
-from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
+from tendon_id.zoo.testing import scrambled_truth
 
 ANALYTIC = ["proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth", "capstan-const-mu"]
 
@@ -78,21 +78,11 @@ def test_save_load_predict_is_identical_and_pickle_free(data, tmp_path, name):
     np.testing.assert_array_equal(back.predict_chain(test), m.predict_chain(test))
 
 
-def _scrambled(rec: Recording, seed: int) -> Recording:
-    frame = rec.frame.copy()
-    rng = np.random.default_rng(seed)
-    n = rec.n_modules
-    for j in range(1, n):
-        for i in range(1, 4):
-            frame[f"tension_joint_{j}_{i}"] = rng.uniform(1.0, 400.0, size=len(frame))
-    return Recording(frame, rec.meta)
-
-
 @pytest.mark.parametrize("name", ANALYTIC[1:])
 def test_scrambling_intermediate_truth_changes_no_fitted_parameter(data, name):
     train, _ = data
     a = zoo.make(name, n_starts=2, maxeval=80).fit(train)
-    b = zoo.make(name, n_starts=2, maxeval=80).fit(_scrambled(train, 1))
+    b = zoo.make(name, n_starts=2, maxeval=80).fit(scrambled_truth(train, 1))
     np.testing.assert_array_equal(a.A_, b.A_)
     np.testing.assert_array_equal(a.B_, b.B_)
 
