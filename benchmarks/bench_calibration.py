@@ -62,7 +62,7 @@ def main() -> None:
     for _ in range(5):
         ours_pred = m.terminal_reading(inputs, A, B, tendons=np.array([0]))
     t_eval = (time.perf_counter() - t0) / 5
-    phi = m.exponent(inputs, A, B)[:, :, 0]  # (T, N-1)
+    phi = m.exponent(inputs, A, B)[:, :, 0, 0]  # (T, N-1)
     t0 = time.perf_counter()
     y = np.log(inputs.actuator[:, -1, 0]).copy()
     for g in range(phi.shape[1]):

@@ -7,7 +7,7 @@ tensions in N, angles in rad, speeds in m/s, times in s.
 Equation numbers refer to the PG-CHTC paper (``shared/seed/pg-chtc-paper.txt``).
 """
 
-from friction_models.bending_stiffness import bending_loss
+from friction_models.bending_stiffness import SLACK_FLOOR_N, bending_loss, edges_with_loss
 from friction_models.capstan import capstan_exponent, capstan_ratio
 from friction_models.contact_gate import hard_contact_gate, smooth_contact_gate
 from friction_models.guide_wear import guide_wear_factors
@@ -16,12 +16,14 @@ from friction_models.play_operator import PlayResult, play_operator, play_operat
 from friction_models.viscoelastic import viscoelastic_lag
 
 __all__ = [
+    "SLACK_FLOOR_N",
     "PlayResult",
     "affine_cosine_mu",
     "bending_loss",
     "capstan_exponent",
     "capstan_ratio",
     "constant_mu",
+    "edges_with_loss",
     "guide_wear_factors",
     "hard_contact_gate",
     "play_operator",

@@ -155,14 +155,16 @@ def _fit_per_tendon(problem: LawProblem, smooth: NDArray, rng: np.random.Generat
     theta = smooth.copy()
     status, n_eval, sse_sum = [], 0, 0.0
     log_label = np.log(inputs.terminal)
-    multiplier = inputs.wrap[..., None] * model.exponent_multiplier(inputs, values)  # fixed: no free block parameters
+    last = np.array([inputs.n_modules - 1])
     zlb, zub = layout.free_bounds()
     smooth_first = not any(b.stage == "propagate" for b in model.block_objects)
     for i in range(3):
+        # Fixed: no free block parameters, so the law-free part of the exponent is computed once.
+        terms = model.exponent_terms(inputs, values, sets=last, tendons=np.array([i]))
 
-        def sse(x, i=i):
+        def sse(x, i=i, terms=terms):
             A, B = layout.split(x)
-            pred = problem.terminal_reading(A[:, None], B[:, None], tendons=np.array([i]), multiplier=multiplier)[:, 0]
+            pred = problem.terminal_reading(A[:, None], B[:, None], tendons=np.array([i]), terms=terms)[:, 0]
             return float(np.sum((np.log(pred[keep]) - log_label[keep, i]) ** 2))
 
         x_starts = _starts(sse, layout, theta[:, i], rng, int(model.n_starts), smooth_first=smooth_first)

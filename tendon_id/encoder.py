@@ -53,7 +53,9 @@ def encoder_covariance(
     angles offset by ``U(-step/2, step/2)`` per group of :func:`encoder_runs`.
     """
     surrogate = CapstanModel(
-        mu_law=model.mu_law, blocks=[b for b in model.block_objects if b.stage == "exponent"], tying=model.tying
+        mu_law=model.mu_law,
+        blocks=[b for b in model.block_objects if b.stage == "exponent" and not b.per_tendon],
+        tying=model.tying,
     )
     runs = encoder_runs(inputs.angles)
     n_runs = int(runs.max()) + 1

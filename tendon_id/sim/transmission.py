@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from friction_models import (
     affine_cosine_mu,
     bending_loss,
+    edges_with_loss,
     guide_wear_factors,
     hard_contact_gate,
     play_operator_edges,
@@ -32,17 +33,19 @@ from tendon_id.errors import ConfigError
 from tendon_id.geometry import (
     RobotGeometry,
     backbone_wrap,
+    backward_rate,
     joint_rotation,
+    path_rate_at,
     projected_bend,
+    sliding_speed,
+    sliding_speed_at,
     tendon_azimuths,
     turn_into_upper,
     turn_out_of_lower,
 )
 from tendon_id.sim.effects import Effects
 
-#: Smallest tension [N] a bending-stiffness loss may leave; the taut regime
-#: (paper §III-D) is far above it, so it only keeps logarithms finite.
-SLACK_FLOOR_N = 1e-3
+__all__ = ["FrictionLaw", "TransmissionResult", "sliding_speed", "transmit"]
 
 
 @dataclass(frozen=True)
@@ -116,55 +119,6 @@ class TransmissionResult:
         return self.chain[:, np.arange(n), np.arange(n), :]
 
 
-def _backward_rate(x: NDArray, reset: NDArray, dt: float) -> NDArray:
-    """Backward-difference time derivative, zero on each trajectory's first frame."""
-    rate = np.zeros_like(x)
-    rate[1:] = (x[1:] - x[:-1]) / dt
-    rate[reset] = 0.0
-    return rate
-
-
-def sliding_speed(theta: NDArray, geometry: RobotGeometry, reset: NDArray, dt: float) -> NDArray:
-    """Speed [m/s] at which tendon ``i`` of set ``j`` slides through guide ``k``.
-
-    The tendon is anchored at joint ``j``, so it slides through guide ``k`` as
-    fast as its path beyond guide ``k`` changes length; across joint ``m`` that
-    length changes by ``-r b_m(psi)`` (small angles, hole radius ``r``).
-
-    Returns
-    -------
-    ndarray, shape (T, N-1, N, 3)
-        Zero where set ``j`` does not pass guide ``k``.
-    """
-    n = geometry.n_modules
-    psi = tendon_azimuths(geometry)
-    cum_rate = _backward_rate(np.cumsum(theta, axis=1), reset, dt)
-    out = np.zeros((theta.shape[0], n - 1, n, 3))
-    for g in range(n - 1):
-        out[:, g, g + 1 :] = _sliding_speed_at(cum_rate, g, psi, geometry.hole_radius)
-    return out
-
-
-def _path_rate_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) -> NDArray:
-    """Signed rate [m/s] at which the path beyond guide index ``g`` lengthens, shape (T, N-g-1, 3).
-
-    Bending joint ``m`` by ``b_m(psi)`` shortens the tendon's path across it by ``r b_m``
-    (small angles, hole radius ``r``), and the projected bend is linear in theta, so the
-    joint-angle rates beyond guide ``k`` are summed first:
-    ``sum_{m=k+1..j} theta_m = C_j - C_k`` with ``C`` the running sum over joints.
-    Positive: the tendon is drawn distally through the guide (reverse slip); negative:
-    towards the actuator (forward slip).
-    """
-    beyond = cum_rate[:, g + 1 :] - cum_rate[:, g, None]  # sum of theta_m rates, m = k+1..j
-    psi_on = psi[g + 1 :]
-    return -hole_radius * (beyond[..., 0, None] * np.cos(psi_on) + beyond[..., 1, None] * np.sin(psi_on))
-
-
-def _sliding_speed_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) -> NDArray:
-    """:func:`sliding_speed` for one guide (index ``g``) and the sets beyond it, shape (T, N-g-1, 3)."""
-    return np.abs(_path_rate_at(cum_rate, g, psi, hole_radius))
-
-
 def transmit(
     theta: NDArray,
     actuator: NDArray,
@@ -202,7 +156,7 @@ def transmit(
     stick_slip = "stick_slip" in effects
     slide = effects.get("stick_slip") if stick_slip and effects.get("stick_slip").driver == "motion" else None
     if "velocity_friction" in effects or slide is not None:
-        cum_rate = _backward_rate(np.cumsum(theta, axis=1), reset, dt)  # d/dt of sum_{m<=j} theta_m
+        cum_rate = backward_rate(np.cumsum(theta, axis=1), reset, dt)  # d/dt of sum_{m<=j} theta_m
     vf = effects.get("velocity_friction") if "velocity_friction" in effects else None
     wear = guide_wear_factors(n - 1, effects.get("guide_wear").guides) if "guide_wear" in effects else None
     bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
@@ -234,7 +188,7 @@ def transmit(
             )
         if vf is not None:
             mu = velocity_dependent_mu(
-                mu, _sliding_speed_at(cum_rate, g, psi, geometry.hole_radius), vf.v_ref, vf.stribeck_drop, vf.v_stribeck
+                mu, sliding_speed_at(cum_rate, g, psi, geometry.hole_radius), vf.v_ref, vf.stribeck_drop, vf.v_stribeck
             )
         ph = mu * (alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha)
         if wear is not None:
@@ -242,15 +196,13 @@ def transmit(
         x = log_t[:, on]
         ph = np.broadcast_to(ph, x.shape)
         if bend > 0:
-            loss = bending_loss(alpha, bend)
-            lo = np.log(np.maximum(np.exp(x - ph) - loss, SLACK_FLOOR_N))
-            hi = np.log(np.exp(x + ph) + loss)
+            lo, hi = edges_with_loss(x - ph, x + ph, bending_loss(alpha, bend))
         else:
             lo, hi = x - ph, x + ph
         if slide is not None:
             # A tendon sliding through the guide sits on the edge of its direction of motion:
             # its step map is the constant map onto that edge (forward: lo, reverse: hi).
-            v = _path_rate_at(cum_rate, g, psi, geometry.hole_radius)
+            v = path_rate_at(cum_rate, g, psi, geometry.hole_radius)
             fwd, rev = v < -slide.slide_threshold, v > slide.slide_threshold
             y = play_operator_edges(np.where(rev, hi, lo), np.where(fwd, lo, hi), reset).log_out
             sig = slip_state(y, lo, hi)

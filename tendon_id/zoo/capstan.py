@@ -29,7 +29,8 @@ from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
 from tendon_id.zoo.base import TransmissionModel
-from tendon_id.zoo.blocks import Block, as_block, block_from_dict
+from tendon_id.zoo.blocks import Block, Passage, as_block, block_from_dict
+from tendon_id.zoo.chain import ExponentTerms, apply_sensor, exponent, exponent_terms, propagate_chain
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 
 MU_LAWS = ("affine-cosine", "constant")
@@ -117,6 +118,8 @@ class CapstanModel(TransmissionModel):
         blocks = tuple(as_block(b) for b in self.blocks)
         if sum(b.stage == "propagate" for b in blocks) > 1:
             raise ConfigError("a model can have at most one propagation block (hysteresis)")
+        if sum(b.stage == "wrap" for b in blocks) > 1:
+            raise ConfigError("a model can have at most one wrap block")
         names = [b.name for b in blocks]
         if len(set(names)) != len(names):
             raise ConfigError(f"each block may appear once, got {names}")
@@ -139,17 +142,17 @@ class CapstanModel(TransmissionModel):
         for b in self.block_objects:
             if b.fixed:
                 continue
-            for p in b.param_names:
-                out.append((b.name, p, tuple(b.bounds[p]), float(getattr(b, p))))
+            for p, v in b.initial().items():
+                out.append((b.name, p, tuple(b.bounds[p]), float(v)))
         return out
 
     @property
     def is_smooth(self) -> bool:
-        """True when ``ln T_N`` is linear in the law: no propagation, output or sensor block, no free parameter."""
-        nonlinear = any(b.stage in ("propagate", "guide_output", "sensor") for b in self.block_objects)
+        """True when ``ln T_N`` is linear in the law: only tendon-independent exponent blocks, none free."""
+        nonlinear = any(b.stage != "exponent" or b.per_tendon for b in self.block_objects)
         return not nonlinear and not self.free_parameters()
 
-    # ---- forward model -------------------------------------------------------------
+    # ---- forward model (tendon_id.zoo.chain) ------------------------------------------
     def block_params(self, overrides: dict | None = None) -> dict[str, dict[str, float]]:
         """Every block's parameters ``{block: {param: value}}``: the blocks' own values, updated by ``overrides``.
 
@@ -162,31 +165,39 @@ class CapstanModel(TransmissionModel):
         return vals
 
     def exponent_multiplier(self, inputs: TransmissionInputs, values: dict | None = None) -> NDArray:
-        """Product of the exponent blocks' factors, shape (T, N-1, 1) (1 where there are none)."""
-        values = self.block_params() if values is None else values
-        m = np.ones(inputs.wrap.shape + (1,))
-        for b in self.block_objects:
-            if b.stage == "exponent":
-                m = b.exponent(m, inputs.wrap, inputs, values.get(b.name, {}))
-        return m
+        """Product of the tendon-independent exponent blocks' factors at the backbone wrap, shape (T, N-1, 1).
 
-    def exponent(
+        The linear design of :class:`~tendon_id.problem.LawProblem` uses it; per-tendon blocks
+        (wraps, sliding speeds) count as 1 there.
+        """
+        values = self.block_params() if values is None else values
+        ctx = Passage(inputs, np.array([inputs.n_modules - 1]), np.arange(3), alpha=inputs.wrap[:, :, None, None])
+        m = np.ones(inputs.wrap.shape + (1, 1))
+        for b in self.block_objects:
+            if b.stage == "exponent" and not b.per_tendon:
+                m = b.exponent(m, ctx, values.get(b.name, {}))
+        return m[..., 0]
+
+    def exponent_terms(
         self,
         inputs: TransmissionInputs,
-        A: NDArray,
-        B: NDArray,
         values: dict | None = None,
-        multiplier: NDArray | None = None,
-    ) -> NDArray:
-        """Capstan exponent ``phi[t, k, i]`` (paper Eq. (5) with the blocks), shape (T, N-1, m).
+        sets: NDArray | None = None,
+        tendons: NDArray | None = None,
+    ) -> ExponentTerms:
+        """The law-free part of the exponent (wrap and exponent blocks), reusable while only the law changes."""
+        values = self.block_params() if values is None else values
+        sets = np.arange(inputs.n_modules) if sets is None else np.asarray(sets)
+        tendons = np.arange(3) if tendons is None else np.asarray(tendons)
+        return exponent_terms(self.block_objects, inputs, values, sets, tendons)
+
+    def exponent(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None) -> NDArray:
+        """Capstan exponent ``phi[t, k, j, i]`` (paper Eq. (5) with the blocks), shape (T, N-1, N|1, m).
 
         ``A``, ``B`` have shape (G, m) for ``m`` tendons; the constant law uses ``B`` as mu.
-        ``multiplier`` may pass a precomputed :meth:`exponent_multiplier` times the wrap.
+        The set axis has length 1 unless a block makes the exponent depend on the set.
         """
-        scaled = inputs.wrap[..., None] * self.exponent_multiplier(inputs, values) if multiplier is None else multiplier
-        if self.mu_law == "constant":
-            return B[None] * scaled
-        return (A[None] * inputs.cos_wrap[..., None] + B[None]) * scaled
+        return exponent(self.mu_law, self.exponent_terms(inputs, values, tendons=np.arange(A.shape[1])), A, B)
 
     def propagate(
         self,
@@ -198,7 +209,7 @@ class CapstanModel(TransmissionModel):
         sets: NDArray | None = None,
         tendons: NDArray | None = None,
         keep_chain: bool = True,
-        multiplier: NDArray | None = None,
+        terms: ExponentTerms | None = None,
     ) -> NDArray:
         """Propagate ``ln T`` through the guides (paper Algorithm 1 with analytic ratios).
 
@@ -216,33 +227,15 @@ class CapstanModel(TransmissionModel):
         keep_chain : bool
             Return the whole chain ``ln T[k, j, i]``, shape (T, N, S, m) with NaN
             off the path; else only the joint sides ``ln T[j, j, i]``, shape (T, S, m).
-        multiplier : ndarray, optional
-            Precomputed wrap times exponent multiplier, shape (T, N-1, 1).
+        terms : ExponentTerms, optional
+            Precomputed :meth:`exponent_terms` for these sets and tendons.
         """
         values = self.block_params() if values is None else values
-        n = inputs.n_modules
-        sets = np.arange(n) if sets is None else np.asarray(sets)
+        sets = np.arange(inputs.n_modules) if sets is None else np.asarray(sets)
         tendons = np.arange(3) if tendons is None else np.asarray(tendons)
-        phi = self.exponent(inputs, A, B, values, multiplier)  # (T, N-1, m)
-        log_t = np.log(inputs.actuator[:, sets][:, :, tendons])  # (T, S, m)
-        chain = np.full((inputs.n_frames, n) + log_t.shape[1:], np.nan) if keep_chain else None
-        if keep_chain:
-            chain[:, 0] = log_t
-        propagate = next((b for b in self.block_objects if b.stage == "propagate"), None)
-        outputs = [b for b in self.block_objects if b.stage == "guide_output"]
-        for g in range(n - 1):
-            active = sets > g  # set j (index j-1) passes guide k = g + 1 iff k < j
-            if not active.any():
-                break
-            x = log_t[:, active]
-            ph = np.broadcast_to(phi[:, g, None, :], x.shape)
-            y = propagate.propagate(x, ph, inputs) if propagate is not None else x - ph
-            for b in outputs:
-                y = b.guide_output(y, inputs, values.get(b.name, {}))
-            log_t[:, active] = y
-            if keep_chain:
-                chain[:, g + 1, active] = y
-        return chain if keep_chain else log_t
+        return propagate_chain(
+            self.block_objects, self.mu_law, inputs, A, B, values, sets, tendons, keep_chain=keep_chain, terms=terms
+        )
 
     def terminal_reading(
         self,
@@ -251,20 +244,14 @@ class CapstanModel(TransmissionModel):
         B: NDArray,
         values: dict | None = None,
         tendons: NDArray | None = None,
-        multiplier: NDArray | None = None,
+        terms: ExponentTerms | None = None,
     ) -> NDArray:
         """Predicted terminal load-cell reading [N], shape (T, m) (the sensor blocks applied)."""
         values = self.block_params() if values is None else values
-        n = inputs.n_modules
-        t = np.exp(
-            self.propagate(
-                inputs, A, B, values, sets=np.array([n - 1]), tendons=tendons, keep_chain=False, multiplier=multiplier
-            )[:, 0]
-        )
-        for b in self.block_objects:
-            if b.stage == "sensor":
-                t = b.sensor(t, inputs, values.get(b.name, {}))
-        return t
+        sets = np.array([inputs.n_modules - 1])
+        tendons = np.arange(3) if tendons is None else np.asarray(tendons)
+        log_t = self.propagate(inputs, A, B, values, sets=sets, tendons=tendons, keep_chain=False, terms=terms)
+        return apply_sensor(self.block_objects, np.exp(log_t[:, 0]), Passage(inputs, sets, tendons), values)
 
     # ---- estimator API ---------------------------------------------------------------
     def fit(self, data: Recording | Sequence[Recording]) -> CapstanModel:

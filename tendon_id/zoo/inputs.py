@@ -77,6 +77,13 @@ class TransmissionInputs:
     clock: NDArray[np.float64]
     dt: float
     geometry: RobotGeometry = field(compare=False)
+    cache: dict = field(default_factory=dict, init=False, compare=False, repr=False)
+
+    def memo(self, key: str, compute):
+        """``compute()`` once per key: derived arrays that blocks read on every evaluation (wraps, speeds)."""
+        if key not in self.cache:
+            self.cache[key] = compute()
+        return self.cache[key]
 
     @property
     def n_frames(self) -> int:

@@ -1,0 +1,141 @@
+"""Cases of the withheld-effect benchmark: simulated data whose truth is a base structure plus an effect.
+
+A case's truth is the base model's structure (the capstan law, plus contact and
+stick/slip for ``capstan-nonsmooth``) and one or two effects the base leaves out, each at
+a magnitude: half, default or double its documented default (DESIGN §5, the settings of
+:mod:`tendon_id.sim.effects`).  Null cases withhold nothing.  Out-of-library cases withhold
+physics no candidate block offers: a transport delay of the terminal load cell, and a
+Stribeck dip of friction with speed.  The robot, the friction law and the protocols are
+``snake12-paper``'s; sessions start fresh so the base's forward-slip start is right, and
+only the withheld effect separates truth and base.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from tendon_id.data import Recording
+from tendon_id.datasets import load_recipe
+from tendon_id.sim import Effects, simulate
+
+#: The base each withheld effect is diagnosed against: the paper's baseline, unless the effect is part of it.
+BASE_FOR = {"contact": "capstan-simple", "stick_slip": "capstan-contact"}
+DEFAULT_BASE = "capstan-nonsmooth"
+#: The simulator effects of each base's structure.
+BASE_EFFECTS = {"capstan-simple": (), "capstan-contact": ("contact",), "capstan-nonsmooth": ("contact", "stick_slip")}
+MAGNITUDES = {"half": 0.5, "default": 1.0, "double": 2.0}
+#: Out-of-library effects (no candidate block models them).
+OUT_OF_LIBRARY = ("sensor_delay", "stribeck_dip")
+#: Transport delay of the terminal load cell's reading at default magnitude [s].
+SENSOR_DELAY_S = 0.4
+#: Stribeck dip of mu from static to kinetic friction at default magnitude [-], and its speed [m/s].
+STRIBECK_DROP = 0.25
+STRIBECK_SPEED = 0.002
+#: Protocols of a case (the training and test data each hold frames of both).
+PROTOCOLS = ("planned-paths", "terminal-only")
+
+
+@dataclass(frozen=True)
+class Case:
+    """One simulated diagnosis problem.
+
+    Attributes
+    ----------
+    kind : {"single", "null", "out-of-library", "pair"}
+    truth : tuple of str
+        Withheld effects (empty for null cases).
+    magnitude : str
+        ``half``, ``default`` or ``double``.
+    seed : int
+    frames : int
+        Training frames per protocol (the test data has half as many).
+    """
+
+    kind: str
+    truth: tuple[str, ...]
+    magnitude: str
+    seed: int
+    frames: int
+
+    @property
+    def base(self) -> str:
+        bases = {BASE_FOR.get(e, DEFAULT_BASE) for e in self.truth}
+        order = ["capstan-simple", "capstan-contact", DEFAULT_BASE]
+        return min(bases, key=order.index) if bases else DEFAULT_BASE
+
+    @property
+    def label(self) -> str:
+        return "+".join(self.truth) or "none"
+
+
+def _scaled_effects(names: tuple[str, ...], scale: float) -> dict:
+    """Settings of the withheld library effects at ``scale`` times their default departure from no effect."""
+    d = Effects()
+    params: dict = {}
+    for name in names:
+        p = d.get(name)
+        if name == "viscoelastic":
+            params[name] = {"tau_v": p.tau_v, "kappa": p.kappa * scale}
+        elif name == "velocity_friction":
+            params[name] = {"v_ref": p.v_ref / scale}
+        elif name == "bending_stiffness":
+            params[name] = {"dT_b": p.dT_b * scale}
+        elif name == "guide_wear":
+            params[name] = {"guides": {k: 1.0 + (w - 1.0) * scale for k, w in p.guides.items()}}
+        elif name == "sensor_bias":
+            params[name] = {"offset": p.offset * scale, "gain": p.gain * scale, "drift": p.drift * scale}
+    return params
+
+
+def case_recipe(case: Case):
+    """The recipe whose truth the case simulates (``snake12-paper``'s robot and law, fresh sessions)."""
+    recipe = load_recipe("snake12-paper")
+    scale = MAGNITUDES[case.magnitude]
+    lib = tuple(e for e in case.truth if e not in OUT_OF_LIBRARY)
+    enabled = BASE_EFFECTS[case.base] + lib
+    params = _scaled_effects(lib, scale)
+    robot = recipe.robot
+    if "contact" in lib:  # magnitude: the clearance beyond the routing wrap
+        robot = dataclasses.replace(robot, alpha_c=robot.alpha_0 + (robot.alpha_c - robot.alpha_0) * scale)
+    if "per_tendon_wrap" in lib:  # magnitude: the hole radius, which spreads the tendons' wraps
+        robot = dataclasses.replace(robot, hole_radius=robot.hole_radius * scale)
+    if "stribeck_dip" in case.truth:
+        enabled = enabled + ("velocity_friction",)
+        drop = STRIBECK_DROP * scale
+        params["velocity_friction"] = {"v_ref": 1e6, "stribeck_drop": drop, "v_stribeck": STRIBECK_SPEED}
+    return dataclasses.replace(recipe, session="fresh", robot=robot, effects=Effects(enabled=enabled, params=params))
+
+
+def _delayed(rec: Recording, delay_s: float) -> Recording:
+    """The terminal load cell's reading delayed by ``delay_s`` (held at its first value at each trajectory start)."""
+    lag = int(round(delay_s * rec.sample_rate_hz))
+    terminal = rec.terminal.copy()
+    starts = np.flatnonzero(rec.trajectory_starts).tolist() + [rec.n_frames]
+    for a, b in zip(starts[:-1], starts[1:]):
+        seg = rec.terminal[a:b]
+        terminal[a:b] = np.concatenate([np.repeat(seg[:1], min(lag, b - a), axis=0), seg[: max(b - a - lag, 0)]])
+    return Recording.from_arrays(
+        trajectory=rec.trajectory_ids,
+        t=rec.time,
+        angles=rec.angles,
+        actuator=rec.actuator,
+        terminal=terminal,
+        joint_truth=None,
+        meta=rec.meta,
+    )
+
+
+def case_data(case: Case) -> tuple[list[Recording], list[Recording]]:
+    """Training and test recordings of a case (independent seeds, both protocols)."""
+    recipe = case_recipe(case)
+
+    def make(seed: int, frames: int) -> list[Recording]:
+        recs = [simulate(recipe, p, frames=frames, seed=seed).recording for p in PROTOCOLS]
+        if "sensor_delay" in case.truth:
+            recs = [_delayed(r, SENSOR_DELAY_S * MAGNITUDES[case.magnitude]) for r in recs]
+        return recs
+
+    return make(1000 + case.seed, case.frames), make(2000 + case.seed, case.frames // 2)

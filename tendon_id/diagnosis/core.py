@@ -1,0 +1,279 @@
+"""``diagnose``: where the gap of a base model lies, which unmodelled effect causes it, and how far it shrinks.
+
+The flow (DESIGN §13):
+
+1. **Base.** The base's structure is refitted on each training split from its own fit
+   (:func:`~tendon_id.diagnosis.refit.refit`), so that it and every candidate are fitted
+   by the same optimiser and a candidate cannot win by a better optimisation alone.
+2. **Where.** Its held-out residual, by stratum (:mod:`~tendon_id.diagnosis.where`), its
+   whiteness (Ljung–Box) and its correlation with every candidate's signature.
+3. **Which.** Each candidate block is added to the base and refitted from the base fit;
+   candidates are ranked by held-out mean squared error.  A candidate counts when the
+   block-bootstrap interval of its improvement excludes 0 at ``alpha`` divided by the
+   number of candidates.  The training BIC, the confounding of its parameters with the
+   law, and the sparse vote on the signature library (:mod:`~tendon_id.diagnosis.library`)
+   are reported beside the ranking.
+4. **How far.** A greedy ladder adds the best candidate, then the best of the next few on
+   top of it, while the improvement stays significant.
+5. **Verdict** (:mod:`~tendon_id.diagnosis.verdict`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from tendon_id.data import Recording
+from tendon_id.diagnosis.library import Library
+from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult, Rung
+from tendon_id.diagnosis.runner import Scorer
+from tendon_id.diagnosis.settings import DiagnosisSettings
+from tendon_id.diagnosis.splits import make_splits, stack
+from tendon_id.diagnosis.stats import ljung_box_p, noise_floor
+from tendon_id.diagnosis.verdict import decide
+from tendon_id.diagnosis.where import gap_map
+from tendon_id.errors import ConfigError
+from tendon_id.zoo.blocks import EFFECT_BLOCKS
+from tendon_id.zoo.capstan import CapstanModel
+from tendon_id.zoo.inputs import as_recordings
+
+#: Subsampled points per residual-against-regressor plot.
+PLOT_POINTS = 3000
+
+
+def candidate_names(spec: str | Sequence[str] | None) -> list[str]:
+    """Validated candidate effect names (default: every effect with a block)."""
+    if spec is None:
+        return list(EFFECT_BLOCKS)
+    names = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else [str(p) for p in spec]
+    names = [n for n in names if n]
+    unknown = [n for n in names if n not in EFFECT_BLOCKS]
+    if unknown or not names:
+        raise ConfigError(f"unknown candidate effect(s) {unknown or names}; known: {', '.join(EFFECT_BLOCKS)}")
+    return list(dict.fromkeys(names))
+
+
+def check_base(base) -> CapstanModel:
+    """The base model, which must be of the capstan family (its blocks are what candidates extend)."""
+    if not isinstance(base, CapstanModel):
+        name = getattr(base, "name", type(base).__name__)
+        raise ConfigError(
+            f"the diagnosis extends a capstan-family model with effect blocks; {name!r} is not one "
+            "(use capstan-simple, capstan-contact, capstan-nonsmooth or capstan-const-mu)"
+        )
+    return base
+
+
+def diagnose(
+    base: CapstanModel,
+    train: Recording | Sequence[Recording],
+    test: Recording | Sequence[Recording] | None = None,
+    candidates: str | Sequence[str] | None = None,
+    *,
+    settings: DiagnosisSettings | None = None,
+    n_jobs: int | None = 1,
+    progress: bool | None = None,
+) -> DiagnosisResult:
+    """Diagnose the gap between a capstan-family base model and measured data.
+
+    Parameters
+    ----------
+    base : CapstanModel
+        Fitted or not (an unfitted one is first fitted on ``train``).
+    train : Recording or sequence of Recording
+        Training recordings (terminal labels).
+    test : Recording or sequence of Recording, optional
+        Held-out recordings; without them, blocked cross-validation by trajectory.
+    candidates : str or sequence of str, optional
+        Candidate effects (DESIGN §5 names), default all; those already in the base are skipped.
+    settings : DiagnosisSettings, optional
+    n_jobs : int, optional
+        Parallel refits (joblib; ``-1``: every core).
+    progress : bool, optional
+        Progress bar (default: on a terminal).
+
+    Returns
+    -------
+    DiagnosisResult
+
+    Raises
+    ------
+    ConfigError
+        For a base outside the capstan family, unknown candidates, or too few trajectories.
+    """
+    t0 = time.perf_counter()
+    settings = settings or DiagnosisSettings()
+    base = check_base(base)
+    names = candidate_names(candidates)
+    train_recs = as_recordings(train)
+    test_recs = as_recordings(test) if test is not None else None
+    if not hasattr(base, "A_"):
+        base = base.fit(train_recs)
+    in_base = {b.effect for b in base.block_objects if b.effect}
+    skipped = {n: "already in the base" for n in names if n in in_base}
+    names = [n for n in names if n not in in_base]
+    splits, validation = make_splits(train_recs, test_recs, base.geometry_, settings.folds)
+    rng = np.random.default_rng(settings.seed)
+    heldout = stack([s.test for s in splits])
+    block = max(int(round(settings.block_s / heldout.dt)), 1)
+    scorer = Scorer(splits, settings, n_jobs=n_jobs, progress=progress)
+
+    # Base, refitted per split from its own fit.
+    start = (base.A_, base.B_, base.block_params_)
+    base_score = scorer.score([base], [[start] * len(splits)], "refit base")[0]
+    e0 = base_score.residual
+    mse0 = float(np.nanmean(e0**2))
+    floor, noise_source = noise_floor(splits[0].test_noise, base_score.fits[0].model, heldout, e0, rng)
+
+    # Candidates: localised on all training data with the base fit, then refitted per split.
+    full_train = stack([s.train for s in splits]) if test_recs is not None else _whole(splits)
+    resid_train = full_train.terminal - base.terminal_reading(full_train, *start)
+    blocks = {n: EFFECT_BLOCKS[n].localise(base, full_train, *start, resid_train) for n in names}
+    structures = [base.with_blocks(b) for b in blocks.values()]
+    starts = [[(f.model.A_, f.model.B_, f.model.block_params_) for f in base_score.fits] for _ in structures]
+    scores = scorer.score(structures, starts, "refit candidates")
+    level = 1.0 - 2.0 * settings.alpha / max(len(names), 1)
+    results = []
+    for (effect, blk), sc in zip(blocks.items(), scores):
+        ci = scorer.improvement_ci(e0, sc.residual, block, level, rng)
+        mse = float(np.nanmean(sc.residual**2))
+        fitted = sc.fits[0].model
+        params = fitted.block_values_.get(blk.name, {})
+        results.append(
+            CandidateResult(
+                effect=effect,
+                block={**blk.to_dict(), **params},
+                heldout_rmse=float(np.sqrt(mse)),
+                gap_closed=_closed(mse0, mse, floor),
+                improvement_ci=ci,
+                significant=ci[0] > 0,
+                ic_delta=float(sum(f.bic() for f in sc.fits) - sum(f.bic() for f in base_score.fits)),
+                params=params,
+                location=_location(blk),
+                confounded=tuple(_confounded(sc.fits[0], blk.name, settings.confound_corr)),
+            )
+        )
+    order = sorted(range(len(results)), key=lambda i: results[i].heldout_rmse)
+    ranked = [results[i] for i in order]
+
+    # Where, and the library of signatures on the held-out frames.
+    library = Library.build(blocks, base, heldout, *_stacked_law(base_score, splits, heldout), base.block_params_)
+    where = gap_map(heldout, e0, block=block, n_boot=settings.n_boot, level=1 - settings.alpha, rng=rng)
+    vote, shares = library.sparse_vote(e0)
+
+    # How far: the ladder.
+    ladder = [Rung(["base"], float(np.sqrt(mse0)), 0.0)]
+    ladder_model, warnings = base, []
+    current, current_score = base, base_score
+    chosen: list[str] = []
+    by_effect = {effect: sc for effect, sc in zip(blocks, scores)}
+    if ranked and ranked[0].significant:
+        first = ranked[0].effect
+        chosen, current, current_score = [first], structures[order[0]], scores[order[0]]
+        ladder.append(Rung(["base", first], ranked[0].heldout_rmse, ranked[0].gap_closed, ranked[0].improvement_ci))
+        while len(chosen) < settings.max_rungs:
+            trial = [c.effect for c in ranked if c.effect not in chosen][: settings.ladder_width]
+            if not trial:
+                break
+            trial_structs = [current.with_blocks(blocks[e]) for e in trial]
+            trial_starts = [
+                [_merge(cf.model, by_effect[e].fits[k].model) for k, cf in enumerate(current_score.fits)] for e in trial
+            ]
+            trial_scores = scorer.score(trial_structs, trial_starts, f"ladder rung {len(chosen) + 1}")
+            best = int(np.argmin([np.nanmean(s.residual**2) for s in trial_scores]))
+            ci = scorer.improvement_ci(
+                current_score.residual, trial_scores[best].residual, block, 1 - 2 * settings.alpha / len(trial), rng
+            )
+            if not ci[0] > 0:
+                break
+            chosen.append(trial[best])
+            current, current_score = trial_structs[best], trial_scores[best]
+            mse = float(np.nanmean(current_score.residual**2))
+            ladder.append(Rung(["base", *chosen], float(np.sqrt(mse)), _closed(mse0, mse, floor), ci))
+        ladder_model = current_score.fits[0].model
+    for c in ranked:
+        for q in c.confounded:
+            warnings.append(f"{c.effect}: {q}")
+    excess_ci = scorer.excess_ci(e0, floor, block, 1 - 2 * settings.alpha, rng)
+    verdict = decide(mse0, floor, excess_ci, ladder, settings)
+    return DiagnosisResult(
+        base=base.name,
+        base_rmse=float(np.sqrt(mse0)),
+        noise_floor=floor,
+        noise_source=noise_source,
+        validation=validation,
+        n_train=int(sum(s.train.n_frames for s in splits[:1])),
+        n_heldout=int(heldout.n_frames),
+        where=where,
+        whiteness={"ljung_box_p": ljung_box_p(e0), "lags": 10},
+        cross_correlation=library.correlations(e0),
+        candidates=ranked,
+        skipped=skipped,
+        vote=vote,
+        vote_shares=shares,
+        vote_agrees=bool(ranked) and vote == ranked[0].effect,
+        ladder=ladder,
+        verdict=verdict,
+        warnings=warnings,
+        model=ladder_model,
+        plots=_plot_data(library, e0, [c.effect for c in ranked[:3]], rng),
+        seconds=time.perf_counter() - t0,
+    )
+
+
+def _whole(splits):
+    """All training frames of a cross-validation: the held-out folds together, in session order."""
+    return stack([s.test for s in splits])
+
+
+def _closed(mse0: float, mse: float, floor: float) -> float:
+    """Share of the base's mean squared error above the noise floor that a model removes [-]."""
+    gap = mse0 - floor**2
+    return float((mse0 - mse) / gap) if gap > 0 else 0.0
+
+
+def _location(block) -> str:
+    guides = getattr(block, "guides", ())
+    return f"guide{'s' if len(guides) > 1 else ''} {', '.join(map(str, guides))}" if guides else ""
+
+
+def _confounded(fit, block_name: str, threshold: float) -> list[str]:
+    """Block parameters whose correlation with a law parameter exceeds ``threshold``."""
+    if fit.corr is None:
+        return []
+    out = []
+    law = [i for i, lab in enumerate(fit.labels) if ":" in lab and "[" in lab.split(":")[0]]
+    for j, lab in enumerate(fit.labels):
+        if lab.startswith(f"{block_name}:"):
+            k = max(law, key=lambda i: abs(fit.corr[j, i]))
+            if abs(fit.corr[j, k]) > threshold:
+                out.append(
+                    f"{lab.split(':', 1)[1]} correlates {fit.corr[j, k]:+.2f} with the law's {fit.labels[k]}: "
+                    "the data cannot tell them apart well (confounded)"
+                )
+    return out
+
+
+def _merge(current, single) -> tuple:
+    """Start of a ladder refit: the current rung's fit, and the candidate's own fitted block values."""
+    values = dict(current.block_params_)
+    values.update({k: v for k, v in single.block_params_.items() if k not in values})
+    return current.A_, current.B_, values
+
+
+def _stacked_law(base_score, splits, heldout):
+    """The base law of the first split (the signatures are shapes, not magnitudes)."""
+    m = base_score.fits[0].model
+    return m.A_, m.B_
+
+
+def _plot_data(library: Library, residual, effects: list[str], rng) -> dict:
+    n = residual.size
+    pick = np.sort(rng.choice(n, size=min(PLOT_POINTS, n), replace=False))
+    out = {"residual": residual.ravel()[pick]}
+    for c, (label, effect) in enumerate(zip(library.labels, library.effects)):
+        if effect in effects:
+            out[label] = library.columns[..., c].ravel()[pick]
+    return out

@@ -1,0 +1,105 @@
+"""The labelled library of signature regressors, their correlation with the residual, and the sparse vote.
+
+Every candidate block declares its signature (:meth:`tendon_id.zoo.blocks.Block.signature`):
+the change of the terminal reading when the block is added to the base at a typical
+magnitude.  The residual of a base that lacks the effect is, to first order, a multiple
+of it.  A sparse regression of the residual on all the columns (pysindy's sequentially
+thresholded least squares, Brunton, Proctor & Kutz 2016) keeps the few columns that
+explain it; the effect whose columns carry most of the fitted residual is the vote, an
+independent check on the ranking by refits.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: STLSQ threshold on standardised coefficients: a column must move the standardised
+#: residual by 5 % of its spread per standard deviation to stay in the model.
+SPARSE_THRESHOLD = 0.05
+
+
+@dataclass(frozen=True)
+class Library:
+    """Signature columns on some frames.
+
+    Attributes
+    ----------
+    labels : list of str
+        ``effect`` or ``effect:param`` per column.
+    effects : list of str
+        The effect of each column.
+    columns : ndarray, shape (T, 3, C)
+        Change of the terminal reading per column [N].
+    """
+
+    labels: list
+    effects: list
+    columns: NDArray
+
+    @classmethod
+    def build(cls, candidates: dict, base, inputs, A, B, values) -> Library:
+        """The signatures of ``candidates`` (``{effect: Block}``) for ``base`` with law ``(A, B)`` on ``inputs``."""
+        labels, effects, cols = [], [], []
+        for effect, block in candidates.items():
+            for label, col in block.signature(base, inputs, A, B, values).items():
+                labels.append(label)
+                effects.append(effect)
+                cols.append(col)
+        columns = np.stack(cols, axis=-1) if cols else np.zeros(inputs.terminal.shape + (0,))
+        return cls(labels, effects, columns)
+
+    def correlations(self, residual: NDArray) -> dict[str, float]:
+        """Pearson correlation of the residual with each column, over frames and tendons."""
+        y = residual.ravel()
+        out = {}
+        for c, label in enumerate(self.labels):
+            x = self.columns[..., c].ravel()
+            ok = np.isfinite(x) & np.isfinite(y)
+            sx, sy = np.std(x[ok]), np.std(y[ok])
+            out[label] = float(np.corrcoef(x[ok], y[ok])[0, 1]) if sx > 0 and sy > 0 else 0.0
+        return out
+
+    def effect_correlation(self, residual: NDArray) -> dict[str, float]:
+        """Per effect, the largest absolute correlation of its columns with the residual."""
+        corr = self.correlations(residual)
+        out: dict[str, float] = {}
+        for label, effect in zip(self.labels, self.effects):
+            out[effect] = max(out.get(effect, 0.0), abs(corr[label]))
+        return out
+
+    def sparse_vote(self, residual: NDArray) -> tuple[str | None, dict[str, float]]:
+        """The effect whose columns a sparse regression of the residual keeps with most weight.
+
+        Returns the vote (None when no column survives) and each effect's share of the
+        fitted residual's sum of absolute standardised contributions.
+        """
+        import pysindy as ps
+
+        y = residual.ravel()
+        X = self.columns.reshape(-1, self.columns.shape[-1])
+        ok = np.isfinite(y) & np.all(np.isfinite(X), axis=1)
+        X, y = X[ok], y[ok]
+        sd = X.std(axis=0)
+        live = sd > 0
+        if not live.any() or np.std(y) == 0:
+            return None, {}
+        Z = (X[:, live] - X[:, live].mean(axis=0)) / sd[live]
+        yz = (y - y.mean()) / np.std(y)
+        opt = ps.STLSQ(threshold=SPARSE_THRESHOLD, alpha=1e-3)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "eliminated all coefficients" is an answer here
+            opt.fit(Z, yz.reshape(-1, 1))
+        coef = np.zeros(len(self.labels))
+        coef[live] = np.asarray(opt.coef_).ravel()
+        weight: dict[str, float] = {}
+        for c, effect in enumerate(self.effects):
+            weight[effect] = weight.get(effect, 0.0) + abs(coef[c])
+        total = sum(weight.values())
+        if total == 0:
+            return None, {e: 0.0 for e in weight}
+        shares = {e: w / total for e, w in weight.items()}
+        return max(shares, key=shares.get), shares

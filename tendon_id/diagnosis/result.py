@@ -1,0 +1,211 @@
+"""What a diagnosis returns: one result object, and its JSON form (the ``--json`` floor of issue 15)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tendon_id.diagnosis.where import Stratum
+
+VERDICT_KINDS = ("none", "explained", "partial", "unexplained")
+
+
+@dataclass(frozen=True)
+class CandidateResult:
+    """One candidate effect added to the base and refitted.
+
+    Attributes
+    ----------
+    effect : str
+        Simulator effect name (DESIGN §5).
+    block : dict
+        The block as saved (``Block.to_dict``), with its fitted parameters.
+    heldout_rmse : float
+        Held-out terminal RMSE of base plus this block [N].
+    gap_closed : float
+        Share of the base's held-out mean squared error above the noise floor that it removes [-].
+    improvement_ci : tuple of float
+        Bootstrap interval of the drop in mean squared error [N^2].
+    significant : bool
+        The interval excludes 0 (at the Bonferroni-corrected level).
+    ic_delta : float
+        Change of the training BIC against the base (negative: better).
+    params : dict
+        Fitted block parameters.
+    location : str
+        Where the effect sits, for localised blocks (e.g. "guides 4, 8").
+    confounded : list of str
+        Block parameters strongly correlated with the law.
+    """
+
+    effect: str
+    block: dict
+    heldout_rmse: float
+    gap_closed: float
+    improvement_ci: tuple[float, float]
+    significant: bool
+    ic_delta: float
+    params: dict
+    location: str = ""
+    confounded: tuple = ()
+
+    def to_dict(self) -> dict:
+        return {
+            "effect": self.effect,
+            "heldout_rmse": self.heldout_rmse,
+            "gap_closed": self.gap_closed,
+            "ic_delta": self.ic_delta,
+            "params": self.params,
+            "significant": self.significant,
+            "improvement_ci": list(self.improvement_ci),
+            "location": self.location,
+            "confounded": list(self.confounded),
+            "block": self.block,
+        }
+
+
+@dataclass(frozen=True)
+class Rung:
+    """One rung of the ladder: the base plus ``effects``.
+
+    Attributes
+    ----------
+    effects : list of str
+    heldout_rmse : float [N]
+    gap_closed : float [-]
+    improvement_ci : tuple of float
+        Drop in mean squared error against the rung below [N^2] (NaN for the base).
+    """
+
+    effects: list
+    heldout_rmse: float
+    gap_closed: float
+    improvement_ci: tuple[float, float] = (float("nan"), float("nan"))
+
+    def to_dict(self) -> dict:
+        return {
+            "effects": list(self.effects),
+            "heldout_rmse": self.heldout_rmse,
+            "gap_closed": self.gap_closed,
+            "improvement_ci": list(self.improvement_ci),
+        }
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """``kind`` is one of :data:`VERDICT_KINDS`; ``remaining`` the share of the gap left [-]."""
+
+    kind: str
+    effects: list
+    remaining: float
+    text: str
+
+    @property
+    def label(self) -> str:
+        """The effect named first, or the kind when none is named (the benchmark's confusion label)."""
+        return self.effects[0] if self.kind in ("explained", "partial") and self.effects else self.kind
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "effects": list(self.effects), "remaining": self.remaining, "text": self.text}
+
+
+@dataclass
+class DiagnosisResult:
+    """Everything :func:`~tendon_id.diagnosis.diagnose` found.
+
+    Attributes
+    ----------
+    base : str
+        The base model's zoo name.
+    base_rmse, noise_floor : float
+        Held-out terminal RMSE of the (refitted) base, and of a perfect model [N].
+    noise_source : str
+    validation : str
+        ``"test"`` or the cross-validation used.
+    where : list of Stratum
+    whiteness : dict
+        Ljung–Box p-values of the base's held-out residual, per tendon.
+    cross_correlation : dict
+        Correlation of that residual with each signature column.
+    candidates : list of CandidateResult
+        Ranked best first.
+    skipped : dict
+        Candidates not tried, with the reason (already in the base).
+    vote, vote_shares, vote_agrees :
+        The sparse regression's vote and whether it names the top-ranked candidate.
+    ladder : list of Rung
+        The base, then each accepted effect.
+    verdict : Verdict
+    warnings : list of str
+    model : CapstanModel
+        The last rung's model, refitted on all the training data.
+    plots : dict
+        Held-out residual and leading signature columns (subsampled) for the report.
+    seconds : float
+    """
+
+    base: str
+    base_rmse: float
+    noise_floor: float
+    noise_source: str
+    validation: str
+    n_train: int
+    n_heldout: int
+    where: list
+    whiteness: dict
+    cross_correlation: dict
+    candidates: list
+    skipped: dict
+    vote: str | None
+    vote_shares: dict
+    vote_agrees: bool
+    ladder: list
+    verdict: Verdict
+    warnings: list = field(default_factory=list)
+    model: object = None
+    plots: dict = field(default_factory=dict, repr=False)
+    seconds: float = 0.0
+
+    def to_dict(self) -> dict:
+        """The JSON form: ``base``, ``gap``, ``where``, ``candidates``, ``ladder``, ``verdict`` and more."""
+        return {
+            "base": self.base,
+            "gap": {"base_rmse": self.base_rmse, "noise_floor": self.noise_floor, "noise_source": self.noise_source},
+            "where": [s.to_dict() for s in self.where],
+            "candidates": [c.to_dict() for c in self.candidates],
+            "ladder": [r.to_dict() for r in self.ladder],
+            "verdict": self.verdict.to_dict(),
+            "validation": self.validation,
+            "frames": {"train": self.n_train, "heldout": self.n_heldout},
+            "whiteness": self.whiteness,
+            "cross_correlation": self.cross_correlation,
+            "sparse_vote": {"effect": self.vote, "shares": self.vote_shares, "agrees": self.vote_agrees},
+            "skipped": self.skipped,
+            "warnings": list(self.warnings),
+            "seconds": self.seconds,
+        }
+
+    def top_strata(self, n: int = 5) -> list[Stratum]:
+        """The strata where the error is most concentrated (share of error over share of frames)."""
+        rows = [s for s in self.where if s.share_frames > 0]
+        return sorted(rows, key=lambda s: -np.nan_to_num(s.concentration))[:n]
+
+    def summary(self) -> str:
+        """A few lines for a terminal."""
+        lines = [
+            f"base {self.base}: held-out RMSE {self.base_rmse:.2f} N, noise floor {self.noise_floor:.2f} N "
+            f"({self.validation})",
+            f"verdict: {self.verdict.text}",
+        ]
+        for r in self.ladder:
+            lines.append(f"  {' + '.join(r.effects):40s} {r.heldout_rmse:8.2f} N  gap closed {r.gap_closed:6.1%}")
+        if self.candidates:
+            lines.append("candidates (best first):")
+            for c in self.candidates:
+                star = "*" if c.significant else " "
+                loc = f" [{c.location}]" if c.location else ""
+                lines.append(f"  {star} {c.effect:18s}{loc} {c.heldout_rmse:8.2f} N  gap closed {c.gap_closed:6.1%}")
+        for w in self.warnings:
+            lines.append(f"warning: {w}")
+        return "\n".join(lines)

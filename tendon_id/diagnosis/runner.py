@@ -1,0 +1,95 @@
+"""Refit structures on every split and score them on the held-out frames, serially or as joblib jobs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.diagnosis.refit import Fit, refit
+from tendon_id.diagnosis.stats import bootstrap_ci
+from tendon_id.progress import progress_bar
+
+
+@dataclass
+class Score:
+    """A structure refitted on each split.
+
+    Attributes
+    ----------
+    fits : list of Fit
+        One per split.
+    residual : ndarray, shape (T, 3)
+        Measured minus predicted terminal reading on the held-out frames of every split [N];
+        NaN in the model's warm-up.
+    """
+
+    fits: list
+    residual: NDArray
+
+
+def heldout_residual(model, inputs) -> NDArray:
+    """Measured minus predicted terminal reading [N], NaN in the model's warm-up."""
+    e = inputs.terminal - _predict(model, inputs)
+    e[inputs.since_start < float(model.warmup_s)] = np.nan
+    return e
+
+
+def _predict(model, inputs) -> NDArray:
+    return model.terminal_reading(inputs, model.A_, model.B_, model.block_params_)
+
+
+def _task(structure, train, test, start, max_nfev) -> tuple[Fit, NDArray]:
+    fit = refit(structure, train, *start, max_nfev=max_nfev)
+    return fit, heldout_residual(fit.model, test)
+
+
+class Scorer:
+    """Runs the refits of a diagnosis.
+
+    Parameters
+    ----------
+    splits : list of Split
+    settings : DiagnosisSettings
+    n_jobs : int, optional
+        joblib workers (1: in this process).
+    progress : bool, optional
+    """
+
+    def __init__(self, splits, settings, *, n_jobs: int | None = 1, progress: bool | None = None):
+        self.splits = splits
+        self.settings = settings
+        self.n_jobs = 1 if n_jobs is None else int(n_jobs)
+        self.progress = progress
+
+    def score(self, structures: list, starts: list[list[tuple]], desc: str) -> list[Score]:
+        """Refit each structure on each split from ``starts[structure][split]``."""
+        jobs = [
+            (structure, split.train, split.test, starts[i][k], self.settings.max_nfev)
+            for i, structure in enumerate(structures)
+            for k, split in enumerate(self.splits)
+        ]
+        if self.n_jobs == 1:
+            out = [_task(*job) for job in progress_bar(jobs, desc=desc, enable=self.progress)]
+        else:
+            from joblib import Parallel, delayed
+
+            gen = Parallel(n_jobs=self.n_jobs, return_as="generator")(delayed(_task)(*job) for job in jobs)
+            out = list(progress_bar(gen, desc=desc, total=len(jobs), enable=self.progress))
+        n = len(self.splits)
+        scores = []
+        for i in range(len(structures)):
+            part = out[i * n : (i + 1) * n]
+            scores.append(Score([f for f, _ in part], np.concatenate([e for _, e in part])))
+        return scores
+
+    def improvement_ci(self, e_before: NDArray, e_after: NDArray, block: int, level: float, rng) -> tuple[float, float]:
+        """Block-bootstrap interval of the drop in held-out mean squared error [N^2]."""
+        d = np.nanmean(e_before**2 - e_after**2, axis=1)
+        return bootstrap_ci(d[np.isfinite(d)], block, self.settings.n_boot, level, rng)
+
+    def excess_ci(self, e: NDArray, floor: float, block: int, level: float, rng) -> tuple[float, float]:
+        """Block-bootstrap interval of the mean squared error above the noise floor's [N^2]."""
+        d = np.nanmean(e**2, axis=1) - floor**2
+        return bootstrap_ci(d[np.isfinite(d)], block, self.settings.n_boot, level, rng)

@@ -1,0 +1,74 @@
+"""Settings of a diagnosis: one frozen, validated dataclass (like sbi's configs)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from tendon_id.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class DiagnosisSettings:
+    """How :func:`~tendon_id.diagnosis.diagnose` decides.
+
+    Parameters
+    ----------
+    folds : int
+        Blocked cross-validation folds by trajectory when no test data is given.
+    alpha : float
+        Significance level of the improvement tests; the first rung's is divided by the
+        number of candidates (Bonferroni), since the best of them is picked.
+    n_boot : int
+        Bootstrap resamples.
+    block_s : float
+        Block length of the moving-block bootstrap [s] (Künsch 1989): held-out residuals of
+        a model that misses slow physics are correlated over seconds, and blocks this long
+        keep that correlation in every resample.
+    min_excess : float
+        No gap is reported when the base's held-out mean squared error exceeds the noise
+        floor's by less than this share of the floor's [-].
+    explained_share : float
+        Share of the gap above the noise floor a ladder must close to call it explained [-].
+    named_share : float
+        Share it must close before any effect is named (below it: unexplained) [-].
+    ladder_width : int
+        Candidates tried at each rung after the first: the best of the first ranking.
+    max_rungs : int
+        Effects a ladder may add.
+    confound_corr : float
+        Correlation between a new block's parameter and the law's above which they are
+        reported as confounded [-].
+    max_nfev : int
+        Iterations of each refit (:func:`~tendon_id.diagnosis.refit.refit`).
+    seed : int
+        Seed of the bootstrap.
+    """
+
+    folds: int = 3
+    alpha: float = 0.05
+    n_boot: int = 500
+    block_s: float = 5.0
+    min_excess: float = 0.1
+    explained_share: float = 0.8
+    named_share: float = 0.5
+    ladder_width: int = 3
+    max_rungs: int = 4
+    confound_corr: float = 0.9
+    max_nfev: int = 60
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        checks = [
+            (self.folds >= 2, "folds must be >= 2"),
+            (0 < self.alpha < 1, "alpha must lie in (0, 1)"),
+            (self.n_boot >= 50, "n_boot must be >= 50"),
+            (self.block_s > 0, "block_s must be a positive time in s"),
+            (self.min_excess >= 0, "min_excess must be >= 0"),
+            (0 < self.named_share <= self.explained_share <= 1, "need 0 < named_share <= explained_share <= 1"),
+            (self.ladder_width >= 1 and self.max_rungs >= 1, "ladder_width and max_rungs must be >= 1"),
+            (0 < self.confound_corr <= 1, "confound_corr must lie in (0, 1]"),
+            (self.max_nfev >= 5, "max_nfev must be >= 5"),
+        ]
+        for ok, msg in checks:
+            if not ok:
+                raise ConfigError(f"diagnosis settings: {msg}")

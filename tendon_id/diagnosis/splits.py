@@ -1,0 +1,92 @@
+"""Training and held-out data of a diagnosis: a test set, or blocked cross-validation by trajectory."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tendon_id.data import Recording
+from tendon_id.errors import ConfigError
+from tendon_id.zoo.inputs import TransmissionInputs
+
+
+@dataclass(frozen=True)
+class Split:
+    """One training/held-out pair, as the arrays the models read."""
+
+    train: TransmissionInputs
+    test: TransmissionInputs
+    test_noise: float | None
+
+
+def meta_noise(recs: list[Recording]) -> float | None:
+    """The load-cell noise [N] the recordings' metadata declare, if they all agree."""
+    values = {(r.meta.get("sensors") or {}).get("noise_n") for r in recs}
+    if len(values) == 1:
+        v = values.pop()
+        return float(v) if v is not None else None
+    return None
+
+
+def subset(inputs: TransmissionInputs, mask: np.ndarray) -> TransmissionInputs:
+    """The frames of whole trajectories in ``mask``, keeping their session clock."""
+    return TransmissionInputs(
+        angles=inputs.angles[mask],
+        actuator=inputs.actuator[mask],
+        terminal=inputs.terminal[mask],
+        reset=inputs.reset[mask],
+        clock=inputs.clock[mask],
+        dt=inputs.dt,
+        geometry=inputs.geometry,
+    )
+
+
+def make_splits(train: list[Recording], test: list[Recording] | None, geometry, folds: int) -> tuple[list[Split], str]:
+    """The splits, and a description of the validation.
+
+    The session clock (which a sensor drift follows) runs over the files in order, the
+    test files after the training files.  Without ``test``, the trajectories of ``train``
+    are cut into ``folds`` contiguous groups (blocked by trajectory, so no held-out frame
+    has a training neighbour in time) and each group is held out once.
+
+    Raises
+    ------
+    ConfigError
+        When there are fewer trajectories than folds and no test data.
+    """
+    everything = TransmissionInputs.from_recordings(train + (test or []), geometry)
+    n_train = sum(r.n_frames for r in train)
+    if test is not None:
+        is_train = np.arange(everything.n_frames) < n_train
+        split = Split(subset(everything, is_train), subset(everything, ~is_train), meta_noise(test))
+        return [split], "held-out test data"
+    traj = np.concatenate([np.char.add(f"{k}/", r.trajectory_ids.astype(str)) for k, r in enumerate(train)])
+    _, first = np.unique(traj, return_index=True)
+    ids = traj[np.sort(first)]  # trajectories in session order
+    if len(ids) < folds:
+        raise ConfigError(
+            f"cross-validation by trajectory needs at least {folds} trajectories, the training data has {len(ids)}; "
+            "pass held-out test data (--test) or more trajectories"
+        )
+    noise = meta_noise(train)
+    splits = []
+    for group in np.array_split(ids, folds):
+        held = np.isin(traj, group)
+        splits.append(Split(subset(everything, ~held), subset(everything, held), noise))
+    return splits, f"{folds}-fold cross-validation by trajectory"
+
+
+def stack(parts: list[TransmissionInputs]) -> TransmissionInputs:
+    """The held-out frames of every split, one after the other (clocks kept)."""
+    if len(parts) == 1:
+        return parts[0]
+    return TransmissionInputs(
+        angles=np.concatenate([p.angles for p in parts]),
+        actuator=np.concatenate([p.actuator for p in parts]),
+        terminal=np.concatenate([p.terminal for p in parts]),
+        reset=np.concatenate([p.reset for p in parts]),
+        clock=np.concatenate([p.clock for p in parts]),
+        dt=parts[0].dt,
+        geometry=parts[0].geometry,
+    )

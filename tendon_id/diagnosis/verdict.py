@@ -1,0 +1,48 @@
+"""The verdict of a diagnosis: no significant gap, explained, partially explained, or unexplained."""
+
+from __future__ import annotations
+
+from tendon_id.diagnosis.result import Verdict
+
+
+def decide(mse0: float, floor: float, excess_ci: tuple[float, float], ladder: list, settings) -> Verdict:
+    """Read the verdict off the base's gap and the ladder.
+
+    * ``none``: the base's held-out mean squared error is within ``min_excess`` of the noise
+      floor's, or its excess is not significant.
+    * ``unexplained``: a gap, and no candidate closes a significant part of it, or the ladder
+      closes less than ``named_share`` of it (a candidate that only mimics an effect outside
+      the library is not named).
+    * ``explained``: the ladder closes at least ``explained_share``; ``partial`` in between.
+
+    Parameters
+    ----------
+    mse0 : float
+        Base's held-out mean squared error [N^2].
+    floor : float
+        Noise floor [N].
+    excess_ci : tuple of float
+        Bootstrap interval of ``mse0 - floor^2`` [N^2].
+    ladder : list of Rung
+        The base, then each accepted rung.
+    settings : DiagnosisSettings
+    """
+    if mse0 <= floor**2 * (1.0 + settings.min_excess) or not excess_ci[0] > 0:
+        return Verdict("none", [], 0.0, f"no significant gap: the base is within the noise floor ({floor:.2f} N)")
+    if len(ladder) < 2:
+        return Verdict("unexplained", [], 1.0, "unexplained: no candidate closes a significant part of the gap")
+    closed = min(max(ladder[-1].gap_closed, 0.0), 1.0)
+    effects = [e for e in ladder[-1].effects if e != "base"]
+    remaining = 1.0 - closed
+    if closed >= settings.explained_share:
+        return Verdict("explained", effects, remaining, f"explained by {', '.join(effects)} ({closed:.0%} of the gap)")
+    if closed >= settings.named_share:
+        return Verdict(
+            "partial", effects, remaining, f"partially explained by {', '.join(effects)}: {remaining:.0%} remains"
+        )
+    return Verdict(
+        "unexplained",
+        [],
+        remaining,
+        f"unexplained: the best ladder ({', '.join(effects)}) closes only {closed:.0%} of the gap",
+    )

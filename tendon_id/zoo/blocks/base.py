@@ -1,0 +1,193 @@
+"""The block contract: stages, the context a hook sees, and self-registration.
+
+A capstan model propagates ``ln T`` of each tendon through the guides, proximal to
+distal (paper Algorithm 1 with analytic ratios).  A block acts at one stage, and
+every block of a stage has the same hook (``values`` holds the block's parameters,
+``{param: value}``; ``ctx`` is a :class:`Passage`):
+
+==================  =========================================  ==============================
+stage               hook                                       what it changes
+==================  =========================================  ==============================
+``wrap``            ``wrap(alpha, ctx, values) -> alpha``      the wrap the law sees
+``exponent``        ``exponent(phi, ctx, values) -> phi``      the capstan exponent; linear in
+                                                               ``phi`` (a friction multiplier)
+``edges``           ``edges(lo, hi, ctx, values) -> lo, hi``   a guide's slip edges
+``propagate``       ``propagate(lo, hi, ctx, values) -> y``    the step between the edges
+                                                               (default: forward slip, ``lo``)
+``guide_output``    ``guide_output(y, ctx, values) -> y``      the tension leaving a guide
+``sensor``          ``sensor(t, ctx, values) -> t``            the terminal reading [N]
+==================  =========================================  ==============================
+
+The ``wrap`` and ``exponent`` stages act on arrays over all guides, shape
+``(T, K, S, m)`` (or broadcastable: ``(T, K, 1, 1)`` when every set and tendon sees
+the backbone wrap); the three per-guide stages see one guide, ``ctx.guide``, and
+arrays of shape ``(T, S_g, m)`` for the sets that pass it.
+
+Each block declares the simulator effect it models (:attr:`Block.effect`, DESIGN §5),
+its free parameters with bounds and neutral initial values (a model with the block
+added starts from its base model's fit), and a probe: a typical magnitude of each
+parameter, from which the sim-to-real diagnosis builds the block's signature
+regressor (:meth:`Block.signature`).  Subclasses that set ``name`` register
+themselves in :data:`BLOCK_TYPES`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+STAGES = ("wrap", "exponent", "edges", "propagate", "guide_output", "sensor")
+
+#: Every block class by name (filled by :meth:`Block.__init_subclass__`).
+BLOCK_TYPES: dict[str, type[Block]] = {}
+#: The block class that models each simulator effect (DESIGN §5 names).
+EFFECT_BLOCKS: dict[str, type[Block]] = {}
+
+
+@dataclass(frozen=True)
+class Passage:
+    """What a block's hook sees besides the array it transforms.
+
+    Attributes
+    ----------
+    inputs : TransmissionInputs
+        The data (angles, actuator tensions, resets, clock, geometry).
+    sets, tendons : ndarray of int
+        0-based set and tendon indices being propagated.
+    alpha : ndarray, optional
+        Wrap after the ``wrap`` stage [rad], shape ``(T, K, S, m)`` or ``(T, K, 1, 1)``.
+    guide : int, optional
+        0-based guide index, in the per-guide stages.
+    active : ndarray of bool, optional
+        Which of ``sets`` pass ``guide``.
+    """
+
+    inputs: Any
+    sets: NDArray[np.int_]
+    tendons: NDArray[np.int_]
+    alpha: NDArray | None = None
+    guide: int | None = None
+    active: NDArray[np.bool_] | None = None
+
+    def at_guide(self, guide: int, active: NDArray[np.bool_]) -> Passage:
+        return replace(self, guide=guide, active=active)
+
+    @property
+    def guide_alpha(self) -> NDArray:
+        """Wrap at ``guide`` for the sets passing it, shape ``(T, S_g, m)`` or ``(T, 1, 1)`` [rad]."""
+        a = self.alpha[:, self.guide]
+        return a[:, self.active] if a.shape[1] > 1 else a
+
+    @cached_property
+    def set_numbers(self) -> tuple[int, ...]:
+        return tuple(int(s) for s in self.sets)
+
+
+@dataclass(frozen=True)
+class Block:
+    """Base of the effect blocks (see the module docstring).
+
+    Attributes
+    ----------
+    name : str
+        Registry name (what a saved model stores).
+    effect : str or None
+        The simulator effect it models (DESIGN §5), or None.
+    stage : str
+        One of :data:`STAGES`.
+    per_tendon : bool
+        The block's factor differs by set or tendon (it cannot enter the linear design
+        of :class:`~tendon_id.problem.LawProblem`).
+    param_names : tuple of str
+        Free parameters (calibrated with the law unless ``fixed``).
+    bounds : dict
+        ``(lower, upper)`` per parameter, in its units.
+    probe : dict
+        A typical magnitude per parameter, in its units (the signature's step).
+    regressor : str
+        What the effect leaves in the residual (the signature, in words).
+    fixed : bool
+        Hold the parameters at their values instead of fitting them.
+    """
+
+    name: ClassVar[str] = "block"
+    effect: ClassVar[str | None] = None
+    stage: ClassVar[str] = "exponent"
+    per_tendon: ClassVar[bool] = False
+    regressor: ClassVar[str] = ""
+    param_names: tuple[str, ...] = ()
+    bounds: dict = field(default_factory=dict)
+    probe: dict = field(default_factory=dict, compare=False, repr=False)
+    fixed: bool = False
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__:
+            if cls.stage not in STAGES:
+                raise TypeError(f"block {cls.name!r} has unknown stage {cls.stage!r}")
+            BLOCK_TYPES[cls.name] = cls
+            if cls.effect is not None:
+                EFFECT_BLOCKS[cls.effect] = cls
+
+    def initial(self) -> dict[str, float]:
+        """Starting values of the block's parameters."""
+        return {p: float(getattr(self, p)) for p in self.param_names}
+
+    def settings(self) -> dict:
+        """Structural settings that are not fitted parameters (saved with the block)."""
+        return {}
+
+    def to_dict(self) -> dict:
+        return {"block": self.name, "fixed": self.fixed, **self.settings(), **self.initial()}
+
+    def probes(self) -> list[tuple[str, dict[str, float]]]:
+        """``(label, values)`` pairs: the block at a typical magnitude, one per signature column.
+
+        One column per free parameter (that parameter at its probe, the others neutral),
+        or the block as it is when it has none.
+        """
+        if not self.param_names:
+            return [(self.effect or self.name, {})]
+        base = self.initial()
+        return [(f"{self.effect or self.name}:{p}", {**base, p: float(self.probe[p])}) for p in self.param_names]
+
+    def signature(self, model, inputs, A: NDArray, B: NDArray, values: dict) -> dict[str, NDArray]:
+        """The block's signature regressors: what adding it changes in the terminal reading [N].
+
+        ``T_hat(base + block at a probe) - T_hat(base)``, per column of :meth:`probes`, with
+        the base law ``(A, B)`` and block values ``values``: to first order, the residual the
+        effect leaves in a model that lacks it, up to its magnitude.
+
+        Parameters
+        ----------
+        model : CapstanModel
+            The base model (without this block).
+        inputs : TransmissionInputs
+        A, B : ndarray, shape (G, 3)
+            The base's law.
+        values : dict
+            The base's block parameters.
+
+        Returns
+        -------
+        dict of str to ndarray, shape (T, 3)
+        """
+        augmented = model.with_blocks(self)
+        base = model.terminal_reading(inputs, A, B, values)
+        out = {}
+        for label, probe in self.probes():
+            out[label] = augmented.terminal_reading(inputs, A, B, {**values, self.name: probe}) - base
+        return out
+
+    @classmethod
+    def localise(cls, model, inputs, A, B, values, residual: NDArray) -> Block:
+        """The candidate to try for a base model whose terminal residual is ``residual`` [N].
+
+        Default: the block with neutral settings.  A block whose effect sits somewhere
+        (a worn guide) overrides this to say where.
+        """
+        return cls()

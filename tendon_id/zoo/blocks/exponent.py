@@ -1,0 +1,172 @@
+"""Exponent-stage blocks: friction multipliers on the capstan exponent ``phi`` (paper Eqs. (4)–(6))."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from friction_models import guide_wear_factors, hard_contact_gate
+from tendon_id.errors import ConfigError
+from tendon_id.geometry import sliding_speed
+from tendon_id.zoo.blocks.base import Block
+
+#: Most worn guides a localised wear candidate names.
+MAX_WORN_GUIDES = 3
+
+
+@dataclass(frozen=True)
+class ContactGate(Block):
+    """Contact gate ``beta_k = 1[alpha_k > alpha_c]`` with the robot's clearance angle (paper Eq. (6))."""
+
+    name = "contact"
+    effect = "contact"
+    stage = "exponent"
+    regressor = "friction of the guides inside the clearance: residual at small wraps"
+
+    def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
+        return phi * hard_contact_gate(ctx.alpha, ctx.inputs.geometry.alpha_c)
+
+
+@dataclass(frozen=True)
+class VelocityFriction(Block):
+    """Viscous friction: ``mu(v) = mu (1 + viscous * v)`` with the tendon's sliding speed ``v`` [m/s].
+
+    The simulator's ``velocity_friction`` (DESIGN §5) without its Stribeck dip:
+    ``viscous = 1 / v_ref``.  The speed is the rate at which the tendon's path beyond
+    the guide changes length (:func:`tendon_id.geometry.sliding_speed`).
+
+    Parameters
+    ----------
+    viscous : float
+        Relative growth of mu per unit sliding speed [s/m]; 0 is Coulomb friction.
+    """
+
+    name = "velocity_friction"
+    effect = "velocity_friction"
+    stage = "exponent"
+    per_tendon = True
+    regressor = "exponent times sliding speed: residual grows with joint speed"
+    viscous: float = 0.0
+    param_names: tuple[str, ...] = ("viscous",)
+    bounds: dict = field(default_factory=lambda: {"viscous": (0.0, 2000.0)})
+    probe: dict = field(default_factory=lambda: {"viscous": 200.0}, compare=False, repr=False)
+
+    def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
+        inputs = ctx.inputs
+        speed = inputs.memo(
+            "sliding_speed", lambda: sliding_speed(inputs.angles, inputs.geometry, inputs.reset, inputs.dt)
+        )  # (T, K, N, 3)
+        v = speed[:, :, ctx.sets][..., ctx.tendons]
+        return phi * (1.0 + values["viscous"] * v)
+
+
+@dataclass(frozen=True)
+class GuideWear(Block):
+    """Friction multipliers ``1 + wear_k`` at chosen guides (DESIGN §5 ``guide_wear``).
+
+    Parameters
+    ----------
+    guides : tuple of int
+        1-based guides that may be worn (a setting, not fitted).
+    excess : tuple of float
+        ``wear_k``, the excess friction factor per guide [-]; 0 is unworn.
+    """
+
+    name = "guide_wear"
+    effect = "guide_wear"
+    stage = "exponent"
+    regressor = "exponent of one guide: residual follows that guide's wrap only"
+    guides: tuple[int, ...] = ()
+    excess: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        guides = tuple(int(g) for g in self.guides)
+        if any(g < 1 for g in guides) or len(set(guides)) != len(guides):
+            raise ConfigError(f"guide_wear.guides must be distinct guide numbers >= 1, got {self.guides!r}")
+        excess = tuple(float(e) for e in self.excess) or (0.0,) * len(guides)
+        if len(excess) != len(guides):
+            raise ConfigError("guide_wear needs one excess factor per guide")
+        object.__setattr__(self, "guides", guides)
+        object.__setattr__(self, "excess", excess)
+        object.__setattr__(self, "param_names", tuple(f"wear_{g}" for g in guides))
+        object.__setattr__(self, "bounds", {f"wear_{g}": (-0.5, 4.0) for g in guides})
+        object.__setattr__(self, "probe", {f"wear_{g}": 0.2 for g in guides})
+
+    def initial(self) -> dict[str, float]:
+        return {f"wear_{g}": e for g, e in zip(self.guides, self.excess)}
+
+    def settings(self) -> dict:
+        return {"guides": list(self.guides)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> GuideWear:
+        d = dict(d)
+        guides = tuple(int(g) for g in d.pop("guides", ()))
+        excess = tuple(float(d.pop(f"wear_{g}", 0.0)) for g in guides)
+        return cls(guides=guides, excess=excess, **d)
+
+    def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
+        k = phi.shape[1]
+        if self.guides and max(self.guides) > k:
+            raise ConfigError(f"guide_wear names guide {max(self.guides)} but the robot has {k} guides")
+        w = guide_wear_factors(k, {g: 1.0 + values[f"wear_{g}"] for g in self.guides})
+        return phi * w[None, :, None, None]
+
+    @classmethod
+    def localise(cls, model, inputs, A, B, values, residual: NDArray) -> GuideWear:
+        """The worn guides that explain ``residual`` best, by forward selection on their signatures.
+
+        Each guide's column is the change of the terminal reading when that guide alone
+        wears by its probe.  The law's own sensitivities (to ``A`` and ``B``, per tendon)
+        are always in the fit, since a refit moves the law too: a guide is chosen for what
+        its wear does that a change of the law cannot.  Guides are added while the Bayesian
+        information criterion of the least-squares fit of the residual falls (Schwarz
+        1978), with the frame count divided by 20 frames (2 s at 10 Hz) because residuals
+        of a slowly varying mismatch are correlated; at most :data:`MAX_WORN_GUIDES`.
+        """
+        k = inputs.n_modules - 1
+        probe = cls(guides=tuple(range(1, k + 1)))
+        cols = probe.signature(model, inputs, A, B, values)
+        X = np.stack([c.ravel() for c in cols.values()], axis=1)  # (3T, K)
+        law = _law_columns(model, inputs, A, B, values)  # (3T, 6)
+        y = np.asarray(residual, dtype=float).ravel()
+        ok = np.isfinite(y) & np.all(np.isfinite(X), axis=1) & np.all(np.isfinite(law), axis=1)
+        X, y, law = X[ok], y[ok], law[ok]
+        n_eff = max(len(y) / 20.0, 2.0)
+
+        def bic(cols_: list[int]) -> float:
+            D = np.concatenate([law, X[:, cols_]], axis=1)
+            coef = np.linalg.lstsq(D, y, rcond=None)[0]
+            sse = float(np.sum((y - D @ coef) ** 2))
+            return n_eff * np.log(max(sse, 1e-300) / len(y)) + len(cols_) * np.log(n_eff)
+
+        chosen: list[int] = []
+        current = bic(chosen)
+        while len(chosen) < MAX_WORN_GUIDES:
+            trials = {j: bic(chosen + [j]) for j in range(k) if j not in chosen}
+            j, score = min(trials.items(), key=lambda kv: kv[1])
+            if score >= current:
+                break
+            chosen.append(j)
+            current = score
+        if not chosen:  # nothing stands out: the single best guide, so the candidate can still be tried
+            chosen = [int(np.argmax([abs(X[:, j] @ y) / (np.linalg.norm(X[:, j]) + 1e-300) for j in range(k)]))]
+        return cls(guides=tuple(sorted(j + 1 for j in chosen)))
+
+
+def _law_columns(model, inputs, A: NDArray, B: NDArray, values: dict, step: float = 1e-3) -> NDArray:
+    """Sensitivity of the terminal reading [N] to each tendon's law, shape (3T, 6).
+
+    ``A`` and ``B`` of every guide group move together; rows are the flattened ``(T, 3)``
+    reading, and tendon ``i``'s law moves only its own rows.
+    """
+    base = model.terminal_reading(inputs, A, B, values)
+    dA = (model.terminal_reading(inputs, A + step, B, values) - base) / step
+    dB = (model.terminal_reading(inputs, A, B + step, values) - base) / step
+    cols = np.zeros(base.shape + (6,))
+    for i in range(3):
+        cols[:, i, 2 * i] = dA[:, i]
+        cols[:, i, 2 * i + 1] = dB[:, i]
+    return cols.reshape(-1, 6)

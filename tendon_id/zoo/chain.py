@@ -1,0 +1,128 @@
+"""The capstan chain: ``ln T`` of each tendon through the guides, proximal to distal, with the blocks.
+
+Through guide ``k`` the capstan exponent is ``phi = mu_i(alpha) alpha`` times the
+exponent blocks' factors (paper Eqs. (4)–(6)); the guide's slip edges are
+``ln T_in -/+ phi`` (the edge blocks may move them); the step between them is forward
+slip (``ln T_out = ln T_in - phi``) unless a propagation block says otherwise (the
+play operator of the nonsmooth capstan); the output blocks act on what leaves the
+guide.  Everything is vectorised over frames, sets and tendons; the only Python loop
+runs over the guides, because guide ``k + 1`` is fed by guide ``k``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.zoo.blocks import Block, Passage
+
+
+@dataclass(frozen=True)
+class ExponentTerms:
+    """The law-free part of the exponent: ``phi = mu(alpha) * scaled`` (see :func:`exponent_terms`).
+
+    Attributes
+    ----------
+    cos_alpha : ndarray
+        ``cos(alpha)`` of the wrap the law sees, shape ``(T, K, S|1, m|1)``.
+    scaled : ndarray
+        The wrap times the exponent blocks' factors, same shape [rad].
+    ctx : Passage
+    """
+
+    cos_alpha: NDArray
+    scaled: NDArray
+    ctx: Passage
+
+
+def exponent_terms(blocks: Sequence[Block], inputs, values: dict, sets: NDArray, tendons: NDArray) -> ExponentTerms:
+    """Apply the ``wrap`` and ``exponent`` blocks: what the exponent is, short of the law's coefficients."""
+    ctx = Passage(inputs, np.asarray(sets), np.asarray(tendons))
+    alpha = inputs.wrap[:, :, None, None]  # the backbone wrap, paper Eq. (3), shared by sets and tendons
+    cos_alpha = inputs.cos_wrap[:, :, None, None]
+    wraps = [b for b in blocks if b.stage == "wrap"]
+    for b in wraps:
+        alpha = b.wrap(alpha, ctx, values.get(b.name, {}))
+    if wraps:
+        cos_alpha = np.cos(alpha)
+    ctx = replace(ctx, alpha=alpha)
+    scaled = alpha
+    for b in blocks:
+        if b.stage == "exponent":
+            scaled = b.exponent(scaled, ctx, values.get(b.name, {}))
+    return ExponentTerms(cos_alpha, scaled, ctx)
+
+
+def exponent(mu_law: str, terms: ExponentTerms, A: NDArray, B: NDArray) -> NDArray:
+    """Capstan exponent ``phi[t, k, s, i]`` (paper Eq. (5) with the blocks).
+
+    ``A``, ``B`` have shape (G, m) for ``m`` tendons (G = 1: tied); the constant law uses ``B`` as mu.
+    """
+    if mu_law == "constant":
+        return B[None, :, None, :] * terms.scaled
+    return (A[None, :, None, :] * terms.cos_alpha + B[None, :, None, :]) * terms.scaled
+
+
+def propagate_chain(
+    blocks: Sequence[Block],
+    mu_law: str,
+    inputs,
+    A: NDArray,
+    B: NDArray,
+    values: dict,
+    sets: NDArray,
+    tendons: NDArray,
+    keep_chain: bool = True,
+    terms: ExponentTerms | None = None,
+) -> NDArray:
+    """Propagate ``ln T`` through the guides (see ``CapstanModel.propagate``).
+
+    Returns the chain ``ln T[k, j, i]``, shape (T, N, S, m) with NaN off the path, or
+    with ``keep_chain=False`` only the joint sides ``ln T[j, j, i]``, shape (T, S, m).
+    """
+    n = inputs.n_modules
+    if terms is None:
+        terms = exponent_terms(blocks, inputs, values, sets, tendons)
+    phi = exponent(mu_law, terms, A, B)  # (T, K, S|1, m)
+    log_t = np.log(inputs.actuator[:, sets][:, :, tendons])  # (T, S, m)
+    chain = np.full((inputs.n_frames, n) + log_t.shape[1:], np.nan) if keep_chain else None
+    if keep_chain:
+        chain[:, 0] = log_t
+    edges = [b for b in blocks if b.stage == "edges"]
+    prop = next((b for b in blocks if b.stage == "propagate"), None)
+    outputs = [b for b in blocks if b.stage == "guide_output"]
+    for g in range(n - 1):
+        active = sets > g  # set j (index j-1) passes guide k = g + 1 iff k < j
+        if not active.any():
+            break
+        x = log_t[:, active]
+        ph = phi[:, g]
+        ph = np.broadcast_to(ph[:, active] if ph.shape[1] > 1 else ph, x.shape)
+        lo = x - ph
+        if edges or prop is not None:
+            ctx = terms.ctx.at_guide(g, active)
+            hi = x + ph
+            for b in edges:
+                lo, hi = b.edges(lo, hi, ctx, values.get(b.name, {}))
+            y = prop.propagate(lo, hi, ctx, values.get(prop.name, {})) if prop is not None else lo
+        else:
+            y = lo
+        if outputs:
+            ctx = terms.ctx.at_guide(g, active)
+            for b in outputs:
+                y = b.guide_output(y, ctx, values.get(b.name, {}))
+        log_t[:, active] = y
+        if keep_chain:
+            chain[:, g + 1, active] = y
+    return chain if keep_chain else log_t
+
+
+def apply_sensor(blocks: Sequence[Block], tension: NDArray, ctx: Passage, values: dict) -> NDArray:
+    """The sensor blocks on a predicted terminal reading [N], shape (T, m)."""
+    for b in blocks:
+        if b.stage == "sensor":
+            tension = b.sensor(tension, ctx, values.get(b.name, {}))
+    return tension

@@ -1,0 +1,107 @@
+"""The candidate blocks: one per simulator effect, each the simulator's physics, with one hook per stage."""
+
+import dataclasses
+import inspect
+
+import numpy as np
+import pytest
+
+from tendon_id.datasets import load_recipe
+from tendon_id.diagnosis import oracle_blocks
+from tendon_id.sim import Effects, Sensors, simulate
+from tendon_id.sim.effects import EFFECT_NAMES
+from tendon_id.zoo import load_model
+from tendon_id.zoo.blocks import BLOCK_TYPES, EFFECT_BLOCKS, STAGES, Block, GuideWear, as_block, block_from_dict
+from tendon_id.zoo.capstan import CapstanModel
+from tendon_id.zoo.inputs import TransmissionInputs
+
+# Noise-free, near-continuous encoders, fresh sessions: only the transmission differs from the model.
+RECIPE = dataclasses.replace(
+    load_recipe("snake12-paper"), session="fresh", sensors=Sensors(noise_n=0.0, encoder_bits=24)
+)
+TRUE_LAW = (np.array([RECIPE.friction.A]), np.array([RECIPE.friction.B]))
+
+
+def test_every_simulator_effect_has_its_block():
+    assert set(EFFECT_BLOCKS) == set(EFFECT_NAMES)
+    for effect, cls in EFFECT_BLOCKS.items():
+        assert cls.effect == effect
+        assert as_block(effect).name == cls.name  # the effect's name builds its block
+
+
+@pytest.mark.parametrize("effect", EFFECT_NAMES + ("all",))
+def test_block_at_true_settings_is_the_simulator(effect):
+    names = EFFECT_NAMES if effect == "all" else (effect,)
+    rec = simulate(RECIPE, "planned-paths", frames=400, effects=",".join(names), seed=5).recording
+    model = CapstanModel(blocks=oracle_blocks(RECIPE.effects.with_enabled(names)))
+    pred = model.terminal_reading(TransmissionInputs.from_recordings(rec), *TRUE_LAW)
+    plain = CapstanModel().terminal_reading(TransmissionInputs.from_recordings(rec), *TRUE_LAW)
+    # The rate of 24-bit angles is the only approximation (sliding speed); everything else is exact.
+    tol = 5e-3 if effect in ("velocity_friction", "all") else 2e-4
+    assert np.max(np.abs(pred - rec.terminal)) < tol
+    assert np.max(np.abs(plain - rec.terminal)) > 100 * tol  # and the effect is there to be modelled
+
+
+def test_hooks_of_one_stage_share_one_signature():
+    for stage in STAGES:
+        sigs = {
+            str(inspect.signature(getattr(cls, stage)))
+            for cls in BLOCK_TYPES.values()
+            if cls.stage == stage and hasattr(cls, stage)
+        }
+        assert len(sigs) <= 1, (stage, sigs)
+    for cls in BLOCK_TYPES.values():
+        assert hasattr(cls, cls.stage), cls  # every block implements its stage's hook
+        assert cls.regressor, cls  # and says what its effect leaves in the residual
+
+
+def test_blocks_register_themselves():
+    @dataclasses.dataclass(frozen=True)
+    class Probe(Block):
+        name = "test_probe_block"
+        stage = "sensor"
+
+        def sensor(self, tension, ctx, values):
+            return tension
+
+    try:
+        assert BLOCK_TYPES["test_probe_block"] is Probe
+        assert isinstance(as_block("test_probe_block"), Probe)
+    finally:
+        BLOCK_TYPES.pop("test_probe_block")
+
+
+def test_signature_columns_are_the_effect_on_the_reading():
+    rec = simulate(RECIPE, "planned-paths", frames=300, seed=1).recording
+    base = CapstanModel(blocks=("contact",))
+    inputs = TransmissionInputs.from_recordings(rec)
+    for effect, cls in EFFECT_BLOCKS.items():
+        if effect == "contact":
+            continue
+        block = GuideWear(guides=(3,)) if cls is GuideWear else cls()
+        cols = block.signature(base, inputs, *TRUE_LAW, base.block_params())
+        assert cols, effect
+        for label, col in cols.items():
+            assert col.shape == (300, 3)
+            assert np.all(np.isfinite(col)) and np.abs(col).max() > 1e-3, (effect, label)
+
+
+def test_guide_wear_round_trips_and_localises(tmp_path):
+    wear = GuideWear(guides=(3, 7), excess=(0.5, 0.2))
+    assert block_from_dict(wear.to_dict()) == wear
+    recipe = dataclasses.replace(
+        RECIPE,
+        sensors=Sensors(noise_n=0.5),
+        effects=Effects(enabled=("contact", "guide_wear"), params={"guide_wear": {"guides": {6: 2.0}}}),
+    )
+    rec = simulate(recipe, "planned-paths", frames=1200, seed=3).recording
+    base = CapstanModel(blocks=("contact",)).fit(rec)
+    inputs = base.inputs(rec)
+    resid = inputs.terminal - base.predict_terminal(rec)
+    found = GuideWear.localise(base, inputs, base.A_, base.B_, base.block_params_, resid)
+    assert 6 in found.guides
+    fitted = base.with_blocks(GuideWear(guides=(6,)), "sensor_bias").fit(rec)
+    fitted.save(tmp_path / "m")
+    again = load_model(tmp_path / "m")
+    assert again.block_objects == fitted.block_objects
+    np.testing.assert_array_equal(again.predict_terminal(rec), fitted.predict_terminal(rec))

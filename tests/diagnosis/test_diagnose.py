@@ -1,0 +1,112 @@
+"""diagnose(): the result, the verdicts on small withheld-effect problems, and clear errors."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from tendon_id import zoo
+from tendon_id.datasets import load_recipe
+from tendon_id.diagnosis import DiagnosisSettings, diagnose
+from tendon_id.diagnosis.stats import block_bootstrap_means, bootstrap_ci
+from tendon_id.errors import ConfigError
+from tendon_id.sim import Effects, simulate
+
+# A smooth base (capstan-simple) keeps these tests fast; the physics is snake12-paper's.
+RECIPE = dataclasses.replace(load_recipe("snake12-paper"), session="fresh")
+CANDIDATES = "sensor_bias,viscoelastic,bending_stiffness"
+
+
+def _data(effects: tuple[str, ...], seed: int, frames: int):
+    recipe = dataclasses.replace(RECIPE, effects=Effects(enabled=effects))
+    return [simulate(recipe, "planned-paths", frames=frames, seed=seed).recording]
+
+
+@pytest.fixture(scope="module")
+def withheld_bias():
+    train, test = _data(("sensor_bias",), 1, 1200), _data(("sensor_bias",), 2, 600)
+    base = zoo.make("capstan-simple").fit(train)
+    return diagnose(base, train, test, CANDIDATES)
+
+
+def test_withheld_sensor_bias_is_named_and_closes_the_gap(withheld_bias):
+    r = withheld_bias
+    assert r.verdict.kind == "explained" and r.verdict.effects == ["sensor_bias"]
+    assert r.candidates[0].effect == "sensor_bias" and r.candidates[0].significant
+    assert r.ladder[1].heldout_rmse < r.ladder[0].heldout_rmse and r.ladder[1].gap_closed > 0.8
+    assert r.ladder[-1].heldout_rmse < 1.5 * r.noise_floor
+    fitted = r.candidates[0].params
+    assert fitted["offset"] == pytest.approx(3.0, abs=1.0)  # the simulator's default offset [N]
+
+
+def test_json_has_the_floor_shape(withheld_bias):
+    d = json.loads(json.dumps(withheld_bias.to_dict()))
+    assert isinstance(d["base"], str)
+    assert set(d["gap"]) >= {"base_rmse", "noise_floor"}
+    for row in d["where"]:
+        assert set(row) >= {"stratum", "share_error", "share_frames", "bias", "bias_ci"} and len(row["bias_ci"]) == 2
+    kinds = {row["kind"] for row in d["where"]}
+    assert {"guide", "reversal", "wrap", "speed", "tension", "time"} <= kinds
+    for c in d["candidates"]:
+        assert set(c) >= {"effect", "heldout_rmse", "gap_closed", "ic_delta", "params"}
+    rmse = [c["heldout_rmse"] for c in d["candidates"]]
+    assert rmse == sorted(rmse)  # best first
+    for rung in d["ladder"]:
+        assert isinstance(rung["effects"], list) and rung["heldout_rmse"] > 0
+    assert d["verdict"]["kind"] in ("none", "explained", "partial", "unexplained")
+    assert set(d["verdict"]) >= {"kind", "effects", "remaining"}
+
+
+def test_nothing_withheld_gives_no_gap():
+    train, test = _data((), 3, 1200), _data((), 4, 600)
+    r = diagnose(zoo.make("capstan-simple").fit(train), train, test, CANDIDATES)
+    assert r.verdict.kind == "none", r.summary()
+    assert r.base_rmse < 1.2 * r.noise_floor
+
+
+def test_cross_validation_by_trajectory_without_test_data():
+    train = _data(("sensor_bias",), 5, 1260)  # 4 trajectories of 315 frames
+    r = diagnose(zoo.make("capstan-simple"), train, candidates="sensor_bias", settings=DiagnosisSettings(folds=2))
+    assert "cross-validation" in r.validation and r.n_heldout == 1260
+    assert r.verdict.effects == ["sensor_bias"]
+
+
+def test_clear_errors():
+    train = _data((), 6, 400)
+    with pytest.raises(ConfigError, match="capstan"):
+        diagnose(zoo.make("proximal"), train, train)
+    with pytest.raises(ConfigError, match="unknown candidate"):
+        diagnose(zoo.make("capstan-simple"), train, train, "warp_drive")
+    with pytest.raises(ConfigError, match="trajectories"):
+        diagnose(zoo.make("capstan-simple"), train, settings=DiagnosisSettings(folds=3))
+    with pytest.raises(ConfigError, match="folds"):
+        DiagnosisSettings(folds=1)
+
+
+def test_candidates_already_in_the_base_are_skipped():
+    train = _data(("contact",), 7, 600)
+    r = diagnose(zoo.make("capstan-contact").fit(train), train, train, "contact,sensor_bias")
+    assert r.skipped == {"contact": "already in the base"}
+    assert [c.effect for c in r.candidates] == ["sensor_bias"]
+
+
+@given(st.lists(st.floats(-100, 100), min_size=1, max_size=60), st.integers(1, 20), st.integers(0, 10))
+def test_block_bootstrap_means_stay_within_the_data(xs, block, seed):
+    x = np.array(xs)
+    means = block_bootstrap_means(x, block, 64, np.random.default_rng(seed))
+    assert np.all(means >= x.min() - 1e-9) and np.all(means <= x.max() + 1e-9)
+    lo, hi = bootstrap_ci(x, block, 64, 0.9, np.random.default_rng(seed))
+    assert lo <= hi
+
+
+def test_block_bootstrap_interval_covers_a_known_mean():
+    rng = np.random.default_rng(0)
+    # AR(1) noise around 2.0: correlated, so a frame-wise bootstrap would be too narrow.
+    e = np.zeros(4000)
+    for t in range(1, 4000):
+        e[t] = 0.9 * e[t - 1] + rng.standard_normal()
+    lo, hi = bootstrap_ci(2.0 + e, 50, 500, 0.95, np.random.default_rng(1))
+    assert lo < 2.0 < hi
