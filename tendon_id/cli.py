@@ -106,6 +106,12 @@ def _read_all(paths: list[Path]):
     return [Recording.read(p) for p in paths]
 
 
+def _read_one(path: Path):
+    from tendon_id.data import Recording
+
+    return Recording.read(path)
+
+
 def _write_json(path: Path, obj: dict) -> None:
     from tendon_id.atomic import write_json_atomic
 
@@ -258,6 +264,46 @@ def identifiability(
         f"{js['per_guide']['n_params']} ({js['per_guide']['n_unidentifiable']} unidentifiable directions)"
     )
     typer.echo(f"instrument joint {js['advice']['instrument_joint']}; excite joints {js['advice']['excite_joints']}")
+    typer.echo(f"wrote {path}" + (f" and {json_out}" if json_out else ""))
+
+
+@app.command()
+def diagnose(
+    data: list[Path] = typer.Option(None, "--data", help="Training recording(s); repeat for several."),
+    test: list[Path] = typer.Option(
+        None, "--test", help="Held-out recording(s); without them, cross-validation by trajectory."
+    ),
+    base: str = typer.Option(
+        ...,
+        "--base",
+        help=f"The base: a folder from 'tendon-id fit', or a zoo name ({_one_of(names_of(CapstanModel))}).",
+    ),
+    candidates: Optional[str] = typer.Option(
+        None, "--candidates", help=f"Comma-separated candidate effects (default all: {', '.join(EFFECT_NAMES)})."
+    ),
+    out: Path = typer.Option(Path("diagnosis.html"), "--out", help="Self-contained HTML report."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the JSON result."),
+    jobs: int = typer.Option(1, "--jobs", help="Parallel refits (joblib; -1: every core)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
+) -> None:
+    """Where the gap of a capstan-family model lies, which unmodelled effect causes it, and how far it shrinks."""
+    from tendon_id import zoo
+    from tendon_id.diagnosis import DiagnosisSettings, candidate_names, check_base
+    from tendon_id.diagnosis import diagnose as run
+    from tendon_id.report.diagnosis import write_report
+
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise TendonIdError(f"--out {out}: the report is an HTML file (.html)")
+    if json_out is not None and json_out.suffix.lower() != ".json":
+        raise TendonIdError(f"--json {json_out}: the file must end in .json")
+    names = candidate_names(candidates)
+    model = zoo.load_model(base) if Path(base).is_dir() else zoo.make(base)
+    check_base(model)
+    train = _read_all(data)
+    held = [_read_one(p) for p in test] if test else None
+    result = run(model, train, held, names, settings=DiagnosisSettings(seed=seed), n_jobs=jobs)
+    path = write_report(result, out, json_out)
+    typer.echo(result.summary())
     typer.echo(f"wrote {path}" + (f" and {json_out}" if json_out else ""))
 
 

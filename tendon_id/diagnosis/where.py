@@ -2,9 +2,10 @@
 
 Each stratum is a set of frames (or frame-tendon pairs) of one regime: one guide bent
 far, just after a reversal of the tension, a band of total wrap, of joint speed, of
-tension, or a stretch of the session clock.  For each the diagnosis reports the share
-of the squared error it holds against its share of the frames (a stratum holding 40 %
-of the error in 10 % of the frames is where the model is wrong) and its mean bias.
+tension, a stretch of the session clock, or the first seconds of each log.  For each the
+diagnosis reports the share of the squared error it holds against its share of the frames
+(a stratum holding 40 % of the error in 10 % of the frames is where the model is wrong)
+and its mean bias.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ class Stratum:
     stratum : str
         What the frames have in common.
     kind : str
-        ``guide``, ``reversal``, ``wrap``, ``speed``, ``tension`` or ``time``.
+        ``guide``, ``reversal``, ``wrap``, ``speed``, ``tension``, ``time`` or ``start``.
     share_error : float
         Its share of the held-out squared error [-].
     share_frames : float
@@ -108,6 +109,10 @@ def strata_masks(inputs) -> list[tuple[str, str, NDArray]]:
         out.append((name, "tension", mask))
     for name, mask in _quartile_masks(inputs.clock, "session clock", "s"):
         out.append((name, "time", mask))
+    # The first seconds of each log: a model that guesses the stick/slip and lag state at a
+    # log's start is wrong there until the state is forgotten.
+    for name, mask in _quartile_masks(inputs.since_start, "time since log start", "s"):
+        out.append((name, "start", mask))
     return out
 
 

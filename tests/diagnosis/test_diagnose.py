@@ -110,3 +110,25 @@ def test_block_bootstrap_interval_covers_a_known_mean():
         e[t] = 0.9 * e[t - 1] + rng.standard_normal()
     lo, hi = bootstrap_ci(2.0 + e, 50, 500, 0.95, np.random.default_rng(1))
     assert lo < 2.0 < hi
+
+
+def test_cli_writes_the_report_and_json_and_refuses_bad_input(tmp_path):
+    from tendon_id.cli import main
+
+    train, test = _data(("sensor_bias",), 8, 630), _data(("sensor_bias",), 9, 315)
+    train[0].write(tmp_path / "train.parquet")
+    test[0].write(tmp_path / "test.parquet")
+    args = ["diagnose", "--data", str(tmp_path / "train.parquet"), "--test", str(tmp_path / "test.parquet")]
+    out, js = tmp_path / "d.html", tmp_path / "d.json"
+    rc = main(args + ["--base", "capstan-simple", "--candidates", "sensor_bias", "--out", str(out), "--json", str(js)])
+    assert rc == 0
+    d = json.loads(js.read_text())
+    assert d["base"] == "capstan-simple" and d["candidates"][0]["effect"] == "sensor_bias"
+    page = out.read_text()
+    assert page.count("data:image/png;base64,") >= 2 and "http" not in page.split("<body>")[1].split("data:")[0]
+    for bad in (
+        ["--base", "proximal", "--out", str(out)],
+        ["--base", "capstan-simple", "--candidates", "nope", "--out", str(out)],
+        ["--base", "capstan-simple", "--out", str(tmp_path / "d.txt")],
+    ):
+        assert main(args + bad) == 2
