@@ -10,7 +10,17 @@ for the learned ones) only when that model is made or loaded.
 """
 
 from tendon_id.zoo.base import NotFittedError, TransmissionModel
-from tendon_id.zoo.blocks import Block, ContactGate, Hysteresis, SensorBias, ViscoelasticLag
+from tendon_id.zoo.blocks import (
+    BendingStiffness,
+    Block,
+    ContactGate,
+    GuideWear,
+    Hysteresis,
+    PerTendonWrap,
+    SensorBias,
+    VelocityFriction,
+    ViscoelasticLag,
+)
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
 from tendon_id.zoo.persistence import load_model
@@ -20,15 +30,19 @@ from tendon_id.zoo.registry import make, model_class, names, names_of, register
 load = load_model
 
 __all__ = [
+    "BendingStiffness",
     "Block",
     "CapstanModel",
     "ContactGate",
+    "GuideWear",
     "Hysteresis",
     "NotFittedError",
+    "PerTendonWrap",
     "ProximalModel",
     "SensorBias",
     "TransmissionInputs",
     "TransmissionModel",
+    "VelocityFriction",
     "ViscoelasticLag",
     "load",
     "load_model",
