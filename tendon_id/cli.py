@@ -202,12 +202,15 @@ def benchmark(
     ),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the result as JSON (DESIGN §10 shape)."),
     backend: str = typer.Option(
-        "loky", "--backend", help="joblib backend of the sweep's jobs (loky, threading, or a registered dask/ray)."
+        "loky", "--backend", help="joblib backend of the sweep's and diagnosis's jobs (loky, threading, dask, ray)."
     ),
-    jobs: int = typer.Option(1, "--jobs", help="Parallel jobs of the sweep (joblib's n_jobs; -1: all cores)."),
+    jobs: int = typer.Option(
+        1, "--jobs", help="Parallel jobs of the sweep and diagnosis (joblib's n_jobs; -1: all cores)."
+    ),
     points: int = typer.Option(
         5, "--points", help="Grid values per parameter of the sweep (log-spaced, operating point included)."
     ),
+    quick: bool = typer.Option(False, "--quick", help="diagnosis: every effect once, at default magnitude."),
 ) -> None:
     from tendon_id.benchmarks.registry import format_table, run_benchmark
 
@@ -222,6 +225,8 @@ def benchmark(
         kwargs.update(seed=seed, backend=backend, n_jobs=jobs, points=points)
     if name == "latency":
         kwargs.update(seed=seed)
+    if name == "diagnosis":
+        kwargs.update(seed=seed, quick=quick, backend=backend, n_jobs=jobs)
     result = run_benchmark(name, preset=preset, **kwargs)
     typer.echo(format_table(result))
     if json_out:

@@ -52,6 +52,11 @@ BENCHMARKS: dict[str, Benchmark] = {
         "tendon_id.benchmarks.sweep:sweep",
         "tendon_id.benchmarks.sweep:format_sweep",
     ),
+    "diagnosis": Benchmark(
+        "does the gap diagnosis name a withheld effect (confusion matrix, false alarms, shrinkage)",
+        "tendon_id.benchmarks.diagnosis:diagnosis_benchmark",
+        "tendon_id.benchmarks.diagnosis:format_diagnosis",
+    ),
     "latency": Benchmark(
         "streaming latency per frame (paper Section IV-B), against batch inference",
         "tendon_id.benchmarks.latency:latency",

@@ -1,0 +1,163 @@
+"""``tendon-id benchmark diagnosis``: how often the diagnosis names a withheld effect right (issue 15).
+
+Every case (:mod:`tendon_id.benchmarks.withheld`) is simulated, its base is calibrated on the
+training data and :func:`tendon_id.diagnosis.diagnose` runs on it; an oracle refit of the true
+structure gives the shrinkage the diagnosis should have found.  Cases are independent joblib
+jobs, so ``backend="dask"`` runs them on a Dask cluster unchanged.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+
+import numpy as np
+
+from tendon_id.benchmarks.withheld import BASE_FOR, MAGNITUDES, OUT_OF_LIBRARY, Case, case_data, case_recipe
+from tendon_id.sim.effects import EFFECT_NAMES
+
+#: Effects without a magnitude knob: the nonsmooth capstan's stick band is the friction itself.
+NO_MAGNITUDE = ("stick_slip",)
+#: Pairs of withheld effects (both against capstan-nonsmooth).
+PAIRS = (
+    ("viscoelastic", "sensor_bias"),
+    ("bending_stiffness", "velocity_friction"),
+    ("guide_wear", "viscoelastic"),
+    ("sensor_bias", "bending_stiffness"),
+)
+FULL = {"seeds": 5, "null_seeds": 10, "frames": 1000}
+QUICK = {"seeds": 1, "null_seeds": 1, "frames": 1000}
+
+
+def benchmark_cases(quick: bool = False, seed: int = 0) -> list[Case]:
+    """The cases of the full benchmark, or of ``--quick`` (every effect once at default magnitude)."""
+    size = QUICK if quick else FULL
+    seeds = [seed + s for s in range(size["seeds"])]
+    frames = size["frames"]
+    out = []
+    for effect in EFFECT_NAMES:
+        mags = ["default"] if quick or effect in NO_MAGNITUDE else list(MAGNITUDES)
+        out += [Case("single", (effect,), m, s, frames) for m in mags for s in seeds]
+    out += [Case("null", (), "default", seed + s, frames) for s in range(size["null_seeds"])]
+    out += [Case("out-of-library", (e,), "default", s, frames) for e in OUT_OF_LIBRARY for s in seeds]
+    pairs = PAIRS[:1] if quick else PAIRS
+    out += [Case("pair", p, "default", s, frames) for p in pairs for s in seeds]
+    return out
+
+
+def run_case(case: Case) -> dict:
+    """Simulate, calibrate the base, diagnose, and refit the oracle structure of one case."""
+    from tendon_id import zoo
+    from tendon_id.diagnosis import diagnose, oracle_blocks
+    from tendon_id.diagnosis.refit import refit
+    from tendon_id.diagnosis.runner import heldout_residual
+
+    t0 = time.perf_counter()
+    train, test = case_data(case)
+    base = zoo.make(case.base).fit(train)
+    result = diagnose(base, train, test, progress=False)
+    row = {
+        "kind": case.kind,
+        "truth": list(case.truth),
+        "magnitude": case.magnitude,
+        "seed": case.seed,
+        "base": case.base,
+        "label": result.verdict.label,
+        "verdict": result.verdict.kind,
+        "ladder": [r.effects[-1] for r in result.ladder[1:]],
+        "base_rmse": result.base_rmse,
+        "ladder_rmse": result.ladder[-1].heldout_rmse,
+        "noise_floor": result.noise_floor,
+        "oracle_rmse": None,
+    }
+    lib = tuple(e for e in case.truth if e not in OUT_OF_LIBRARY)
+    if lib:
+        truth_blocks = oracle_blocks(case_recipe(case).effects.with_enabled(lib))
+        structure = base.with_blocks(*truth_blocks)
+        inputs = base.inputs(train)
+        fit = refit(structure, inputs, base.A_, base.B_, structure.block_params())
+        e = heldout_residual(fit.model, base.inputs(test))
+        row["oracle_rmse"] = float(np.sqrt(np.nanmean(e**2)))
+    row["seconds"] = time.perf_counter() - t0
+    return row
+
+
+def summarise(rows: list[dict]) -> dict:
+    """Confusion matrix, top-1 per magnitude, false alarms, out-of-library naming, pairs, shrinkage error."""
+    library = list(EFFECT_NAMES)
+    columns = library + ["none", "unexplained"]
+    confusion: dict[str, Counter] = {}
+    for r in rows:
+        if r["kind"] in ("single", "null", "out-of-library"):
+            truth = r["truth"][0] if r["truth"] else "none"
+            confusion.setdefault(truth, Counter())[r["label"]] += 1
+    top1 = {}
+    for mag in MAGNITUDES:
+        sel = [r for r in rows if r["kind"] == "single" and r["magnitude"] == mag]
+        if sel:
+            top1[mag] = sum(r["label"] == r["truth"][0] for r in sel) / len(sel)
+    null = [r for r in rows if r["kind"] == "null"]
+    ool = [r for r in rows if r["kind"] == "out-of-library"]
+    pairs = [r for r in rows if r["kind"] == "pair"]
+    errors = []
+    for r in rows:
+        if r["kind"] == "single" and r["oracle_rmse"] is not None:
+            oracle = r["base_rmse"] - r["oracle_rmse"]
+            if oracle > 0:
+                errors.append(abs((r["base_rmse"] - r["ladder_rmse"]) - oracle) / oracle)
+    return {
+        "confusion": {t: {c: confusion[t].get(c, 0) for c in columns} for t in confusion},
+        "columns": columns,
+        "top1": top1,
+        "null_false_alarm": (sum(r["label"] != "none" for r in null) / len(null)) if null else None,
+        "ool_named": (sum(r["label"] in library for r in ool) / len(ool)) if ool else None,
+        "pair_recovered": (sum(set(r["truth"]) <= set(r["ladder"][:2]) for r in pairs) / len(pairs)) if pairs else None,
+        "median_shrinkage_error": float(np.median(errors)) if errors else None,
+        "cases": len(rows),
+    }
+
+
+def run_cases(cases: list[Case], *, backend: str = "loky", n_jobs: int = 1) -> list[dict]:
+    """:func:`run_case` of every case as independent joblib jobs (``backend="dask"`` for a Dask cluster)."""
+    from joblib import Parallel, delayed, parallel_backend
+
+    with parallel_backend(backend, n_jobs=n_jobs):
+        return Parallel()(delayed(run_case)(c) for c in cases)
+
+
+def diagnosis_benchmark(
+    *, quick: bool = False, seed: int = 0, n_jobs: int = 1, backend: str = "loky", preset: str = "fast", **_
+) -> dict:
+    """Run every case as a joblib job and summarise (``preset`` is unused: no learned model is involved)."""
+    t0 = time.perf_counter()
+    rows = run_cases(benchmark_cases(quick, seed), backend=backend, n_jobs=n_jobs)
+    return {
+        "benchmark": "diagnosis",
+        "quick": quick,
+        "seed": seed,
+        "bases": {**BASE_FOR, "other": "capstan-nonsmooth"},
+        **summarise(rows),
+        "rows": rows,
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+def format_diagnosis(r: dict) -> str:
+    cols = r["columns"]
+    short = {c: c[:6] for c in cols}
+    lines = [f"diagnosis benchmark ({'quick' if r['quick'] else 'full'}, {r['cases']} cases, {r['seconds']:.0f} s)"]
+    lines.append("confusion (rows: withheld truth; columns: the diagnosis's top verdict)")
+    lines.append(f"  {'truth':18s} " + " ".join(f"{short[c]:>6s}" for c in cols))
+    for truth, counts in r["confusion"].items():
+        lines.append(f"  {truth:18s} " + " ".join(f"{counts[c]:6d}" for c in cols))
+    for mag, acc in r["top1"].items():
+        lines.append(f"top-1 at {mag} magnitude: {acc:.0%}")
+
+    def pct(v):
+        return "n/a" if v is None else f"{v:.0%}"
+
+    lines.append(f"null false alarms: {pct(r['null_false_alarm'])}")
+    lines.append(f"out-of-library cases named as a library effect: {pct(r['ool_named'])}")
+    lines.append(f"pairs recovered in the first two rungs: {pct(r['pair_recovered'])}")
+    lines.append(f"median shrinkage error against the oracle refit: {pct(r['median_shrinkage_error'])}")
+    return "\n".join(lines)

@@ -1,0 +1,76 @@
+"""The withheld-effect benchmark: its cases, its summary, and its jobs on a Dask cluster."""
+
+import pytest
+
+from tendon_id.benchmarks.diagnosis import benchmark_cases, run_cases, summarise
+from tendon_id.benchmarks.withheld import Case, case_recipe
+from tendon_id.sim.effects import EFFECT_NAMES
+
+
+def test_quick_and_full_cases_cover_every_kind():
+    quick = benchmark_cases(quick=True)
+    assert {c.truth[0] for c in quick if c.kind == "single"} == set(EFFECT_NAMES)
+    assert {c.kind for c in quick} == {"single", "null", "out-of-library", "pair"}
+    full = benchmark_cases()
+    singles = [c for c in full if c.kind == "single"]
+    assert len({c.seed for c in singles}) >= 5
+    assert {c.magnitude for c in singles} == {"half", "default", "double"}
+    assert len([c for c in full if c.kind == "null"]) >= 5
+
+
+def test_case_truth_is_the_base_structure_plus_the_withheld_effect():
+    c = Case("single", ("viscoelastic",), "double", 0, 100)
+    recipe = case_recipe(c)
+    assert c.base == "capstan-nonsmooth" and recipe.session == "fresh"
+    assert recipe.effects.enabled == ("contact", "stick_slip", "viscoelastic")
+    assert recipe.effects.get("viscoelastic").kappa == pytest.approx(0.08)  # twice the default 0.04
+    assert case_recipe(Case("single", ("contact",), "half", 0, 100)).effects.enabled == ("contact",)
+    assert case_recipe(Case("null", (), "default", 0, 100)).effects.enabled == ("contact", "stick_slip")
+
+
+def _row(kind, truth, label, ladder=(), mag="default", base=10.0, final=2.0, oracle=None):
+    return {
+        "kind": kind,
+        "truth": list(truth),
+        "label": label,
+        "magnitude": mag,
+        "ladder": list(ladder),
+        "base_rmse": base,
+        "ladder_rmse": final,
+        "oracle_rmse": oracle,
+    }
+
+
+def test_summary_counts_by_hand():
+    rows = [
+        _row("single", ["viscoelastic"], "viscoelastic", oracle=2.0),  # shrinkage 8 of 8: error 0
+        _row("single", ["viscoelastic"], "sensor_bias", oracle=6.0),  # 8 against 4: error 1
+        _row("single", ["contact"], "contact", mag="half", oracle=1.0),  # 8 against 9: error 1/9
+        _row("null", [], "none"),
+        _row("null", [], "unexplained"),
+        _row("out-of-library", ["sensor_delay"], "viscoelastic"),
+        _row("out-of-library", ["sensor_delay"], "unexplained"),
+        _row("pair", ["viscoelastic", "sensor_bias"], "viscoelastic", ladder=["viscoelastic", "sensor_bias"]),
+    ]
+    s = summarise(rows)
+    assert s["top1"] == {"half": 1.0, "default": 0.5}
+    assert s["null_false_alarm"] == 0.5
+    assert s["ool_named"] == 0.5
+    assert s["pair_recovered"] == 1.0
+    assert s["median_shrinkage_error"] == pytest.approx(1 / 9)
+    assert s["confusion"]["viscoelastic"]["sensor_bias"] == 1 and s["confusion"]["none"]["unexplained"] == 1
+
+
+def test_cases_run_unchanged_on_a_dask_cluster():
+    distributed = pytest.importorskip("distributed")
+    cases = [Case("single", ("sensor_bias",), "default", 0, 320), Case("null", (), "default", 0, 320)]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster):
+            rows = run_cases(cases, backend="dask")
+    assert [r["kind"] for r in rows] == ["single", "null"]
+    again = run_cases(cases)  # joblib's default backend, in this process
+
+    def strip(rs):
+        return [{k: v for k, v in r.items() if k != "seconds"} for r in rs]
+
+    assert strip(rows) == strip(again)  # the same numbers, wherever the jobs ran
