@@ -153,6 +153,7 @@ def diagnose(
                 params=params,
                 location=_location(blk),
                 confounded=tuple(_confounded(sc.fits[0], blk.name, settings.confound_corr)),
+                at_bound=tuple(_at_bound(blk, sc.fits)),
             )
         )
     order = sorted(range(len(results)), key=lambda i: results[i].heldout_rmse)
@@ -174,7 +175,8 @@ def diagnose(
         chosen, current, current_score = [first], structures[order[0]], scores[order[0]]
         ladder.append(Rung(["base", first], ranked[0].heldout_rmse, ranked[0].gap_closed, ranked[0].improvement_ci))
         while len(chosen) < settings.max_rungs:
-            trial = [c.effect for c in ranked if c.effect not in chosen][: settings.ladder_width]
+            remaining = [c.effect for c in ranked if c.effect not in chosen]
+            trial = _screen(current_score, splits[0].train, remaining, blocks)[: settings.ladder_width]
             if not trial:
                 break
             trial_structs = [current.with_blocks(blocks[e]) for e in trial]
@@ -197,7 +199,14 @@ def diagnose(
         for q in c.confounded:
             warnings.append(f"{c.effect}: {q}")
     excess_ci = scorer.excess_ci(e0, floor, block, 1 - 2 * settings.alpha, rng)
-    verdict = decide(mse0, floor, excess_ci, ladder, settings)
+    strained = {c.effect for c in ranked if c.at_bound}
+    for c in ranked:
+        if c.at_bound:
+            warnings.append(
+                f"{c.effect}: {', '.join(c.at_bound)} reached the edge of its plausible range; the effect it stands "
+                "in for may be outside the library"
+            )
+    verdict = decide(mse0, floor, excess_ci, ladder, settings, strained)
     return DiagnosisResult(
         base=base.name,
         base_rmse=float(np.sqrt(mse0)),
@@ -253,6 +262,42 @@ def _confounded(fit, block_name: str, threshold: float) -> list[str]:
                     f"{lab.split(':', 1)[1]} correlates {fit.corr[j, k]:+.2f} with the law's {fit.labels[k]}: "
                     "the data cannot tell them apart well (confounded)"
                 )
+    return out
+
+
+def _screen(score, train, remaining: list[str], blocks: dict) -> list[str]:
+    """The remaining candidates in the order their signatures correlate with the rung's training residual.
+
+    After an effect is added, what is left of the residual shows the next one; screening by
+    correlation (as in forward stepwise regression) picks which few to refit.  Training data
+    only: the held-out frames judge, they do not choose.
+    """
+    if len(remaining) <= 1:
+        return remaining
+    model = score.fits[0].model
+    law = (model.A_, model.B_, model.block_params_)
+    resid = train.terminal - model.terminal_reading(train, *law)
+    library = Library.build({e: blocks[e] for e in remaining}, model, train, *law)
+    corr = library.effect_correlation(resid)
+    return sorted(remaining, key=lambda e: -corr.get(e, 0.0))
+
+
+def _at_bound(block, fits, rel: float = 1e-3) -> list[str]:
+    """Parameters of ``block`` fitted onto a bound of their range other than the neutral (effect-off) end."""
+    neutral = block.initial()
+    out = []
+    for p in block.param_names:
+        lo, hi = block.bounds[p]
+        tol = rel * (hi - lo)
+        for f in fits:
+            v = f.model.block_values_.get(block.name, {}).get(p)
+            if v is None:
+                continue
+            at_lo = abs(v - lo) <= tol and abs(neutral[p] - lo) > tol
+            at_hi = abs(v - hi) <= tol and abs(neutral[p] - hi) > tol
+            if at_lo or at_hi:
+                out.append(p)
+                break
     return out
 
 

@@ -37,6 +37,9 @@ class CandidateResult:
         Where the effect sits, for localised blocks (e.g. "guides 4, 8").
     confounded : list of str
         Block parameters strongly correlated with the law.
+    at_bound : tuple of str
+        Parameters fitted onto the far edge of their plausible range: the block is strained to
+        mimic something else, so the verdict does not name it.
     """
 
     effect: str
@@ -49,6 +52,7 @@ class CandidateResult:
     params: dict
     location: str = ""
     confounded: tuple = ()
+    at_bound: tuple = ()
 
     def to_dict(self) -> dict:
         return {
@@ -61,6 +65,7 @@ class CandidateResult:
             "improvement_ci": list(self.improvement_ci),
             "location": self.location,
             "confounded": list(self.confounded),
+            "at_bound": list(self.at_bound),
             "block": self.block,
         }
 

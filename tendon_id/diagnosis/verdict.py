@@ -5,7 +5,9 @@ from __future__ import annotations
 from tendon_id.diagnosis.result import Verdict
 
 
-def decide(mse0: float, floor: float, excess_ci: tuple[float, float], ladder: list, settings) -> Verdict:
+def decide(
+    mse0: float, floor: float, excess_ci: tuple[float, float], ladder: list, settings, strained: set | frozenset = ()
+) -> Verdict:
     """Read the verdict off the base's gap and the ladder.
 
     * ``none``: the base's held-out mean squared error is within ``min_excess`` of the noise
@@ -14,6 +16,9 @@ def decide(mse0: float, floor: float, excess_ci: tuple[float, float], ladder: li
       closes less than ``named_share`` of it (a candidate that only mimics an effect outside
       the library is not named).
     * ``explained``: the ladder closes at least ``explained_share``; ``partial`` in between.
+
+    The ladder is read only up to its first ``strained`` effect: a block whose fit reached the
+    far edge of its plausible range is mimicking something, and is not named.
 
     Parameters
     ----------
@@ -26,9 +31,22 @@ def decide(mse0: float, floor: float, excess_ci: tuple[float, float], ladder: li
     ladder : list of Rung
         The base, then each accepted rung.
     settings : DiagnosisSettings
+    strained : set of str
+        Effects whose fitted parameters reached a bound.
     """
     if mse0 <= floor**2 * (1.0 + settings.min_excess) or not excess_ci[0] > 0:
         return Verdict("none", [], 0.0, f"no significant gap: the base is within the noise floor ({floor:.2f} N)")
+    if len(ladder) >= 2 and ladder[1].effects[-1] in strained:
+        e = ladder[1].effects[-1]
+        return Verdict(
+            "unexplained",
+            [],
+            1.0 - min(max(ladder[1].gap_closed, 0.0), 1.0),
+            f"unexplained: the best candidate, {e}, closes {ladder[1].gap_closed:.0%} of the gap only by reaching "
+            "the edge of its plausible range (physics outside the library?)",
+        )
+    upto = next((k for k, r in enumerate(ladder) if k and r.effects[-1] in strained), len(ladder))
+    ladder = ladder[:upto]
     if len(ladder) < 2:
         return Verdict("unexplained", [], 1.0, "unexplained: no candidate closes a significant part of the gap")
     closed = min(max(ladder[-1].gap_closed, 0.0), 1.0)

@@ -132,3 +132,26 @@ def test_cli_writes_the_report_and_json_and_refuses_bad_input(tmp_path):
         ["--base", "capstan-simple", "--out", str(tmp_path / "d.txt")],
     ):
         assert main(args + bad) == 2
+
+
+def test_verdict_rules_by_hand():
+    from tendon_id.diagnosis.result import Rung
+    from tendon_id.diagnosis.verdict import decide
+
+    s = DiagnosisSettings()
+    base = Rung(["base"], 5.0, 0.0)
+    one = Rung(["base", "viscoelastic"], 1.2, 0.95)
+    two = Rung(["base", "viscoelastic", "sensor_bias"], 1.1, 0.97)
+    floor = 1.0
+    assert decide(1.05, floor, (-0.1, 0.2), [base], s).kind == "none"  # within the floor
+    assert decide(25.0, floor, (20.0, 30.0), [base], s).kind == "unexplained"
+    v = decide(25.0, floor, (20.0, 30.0), [base, one, two], s)
+    assert (v.kind, v.effects) == ("explained", ["viscoelastic", "sensor_bias"])
+    half = Rung(["base", "bending_stiffness"], 3.0, 0.6)
+    assert decide(25.0, floor, (20.0, 30.0), [base, half], s).kind == "partial"
+    low = Rung(["base", "bending_stiffness"], 4.5, 0.3)
+    assert decide(25.0, floor, (20.0, 30.0), [base, low], s).kind == "unexplained"
+    # A strained first rung is not named; a strained later rung is cut off.
+    assert decide(25.0, floor, (20.0, 30.0), [base, one, two], s, {"viscoelastic"}).kind == "unexplained"
+    v = decide(25.0, floor, (20.0, 30.0), [base, one, two], s, {"sensor_bias"})
+    assert v.effects == ["viscoelastic"]

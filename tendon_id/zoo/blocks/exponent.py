@@ -71,7 +71,7 @@ class GuideWear(Block):
     guides : tuple of int
         1-based guides that may be worn (a setting, not fitted).
     excess : tuple of float
-        ``wear_k``, the excess friction factor per guide [-]; 0 is unworn.
+        ``wear_k``, the excess friction factor per guide [-], >= 0; 0 is unworn.
     """
 
     name = "guide_wear"
@@ -91,7 +91,8 @@ class GuideWear(Block):
         object.__setattr__(self, "guides", guides)
         object.__setattr__(self, "excess", excess)
         object.__setattr__(self, "param_names", tuple(f"wear_{g}" for g in guides))
-        object.__setattr__(self, "bounds", {f"wear_{g}": (-0.5, 4.0) for g in guides})
+        # Wear roughens a guide: it adds friction (an excess below 0 would be a polished guide).
+        object.__setattr__(self, "bounds", {f"wear_{g}": (0.0, 4.0) for g in guides})
         object.__setattr__(self, "probe", {f"wear_{g}": 0.2 for g in guides})
 
     def initial(self) -> dict[str, float]:
@@ -139,6 +140,8 @@ class GuideWear(Block):
         def bic(cols_: list[int]) -> float:
             D = np.concatenate([law, X[:, cols_]], axis=1)
             coef = np.linalg.lstsq(D, y, rcond=None)[0]
+            if cols_ and coef[-1] <= 0:  # wear only adds friction: a guide that would need less is no worn guide
+                return np.inf
             sse = float(np.sum((y - D @ coef) ** 2))
             return n_eff * np.log(max(sse, 1e-300) / len(y)) + len(cols_) * np.log(n_eff)
 
@@ -152,7 +155,7 @@ class GuideWear(Block):
             chosen.append(j)
             current = score
         if not chosen:  # nothing stands out: the single best guide, so the candidate can still be tried
-            chosen = [int(np.argmax([abs(X[:, j] @ y) / (np.linalg.norm(X[:, j]) + 1e-300) for j in range(k)]))]
+            chosen = [int(np.argmax([(X[:, j] @ y) / (np.linalg.norm(X[:, j]) + 1e-300) for j in range(k)]))]
         return cls(guides=tuple(sorted(j + 1 for j in chosen)))
 
 
