@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
+from tendon_id.errors import ConfigError
 from tendon_id.law_layout import LawLayout
 from tendon_id.zoo.capstan import CapstanModel
 
@@ -123,6 +124,12 @@ def refit(
     lb, ub = np.r_[np.tile(zlb, 3), blo], np.r_[np.tile(zub, 3), bhi]
     z0 = np.clip(np.r_[_law_stack(structure, A, B, layout), b0], lb, ub)
     keep = inputs.since_start >= float(structure.warmup_s)
+    if not keep.any():
+        longest = max(b - a for a, b in inputs.trajectory_bounds) * inputs.dt
+        raise ConfigError(
+            f"the model's warmup_s = {structure.warmup_s} s leaves no training frame "
+            f"(the longest trajectory lasts {longest:.1f} s)"
+        )
     log_label = np.log(np.maximum(inputs.terminal[keep], FLOOR_N))
     n_keep = int(keep.sum())
     sets = np.array([inputs.n_modules - 1])

@@ -86,10 +86,11 @@ class Scorer:
 
     def improvement_ci(self, e_before: NDArray, e_after: NDArray, block: int, level: float, rng) -> tuple[float, float]:
         """Block-bootstrap interval of the drop in held-out mean squared error [N^2]."""
-        d = np.nanmean(e_before**2 - e_after**2, axis=1)
-        return bootstrap_ci(d[np.isfinite(d)], block, self.settings.n_boot, level, rng)
+        sq = e_before**2 - e_after**2
+        ok = np.isfinite(sq).all(axis=1)  # frames outside the warm-up
+        return bootstrap_ci(sq[ok].mean(axis=1), block, self.settings.n_boot, level, rng)
 
     def excess_ci(self, e: NDArray, floor: float, block: int, level: float, rng) -> tuple[float, float]:
         """Block-bootstrap interval of the mean squared error above the noise floor's [N^2]."""
-        d = np.nanmean(e**2, axis=1) - floor**2
-        return bootstrap_ci(d[np.isfinite(d)], block, self.settings.n_boot, level, rng)
+        ok = np.isfinite(e).all(axis=1)
+        return bootstrap_ci((e[ok] ** 2).mean(axis=1) - floor**2, block, self.settings.n_boot, level, rng)

@@ -130,10 +130,11 @@ def gap_map(inputs, residual: NDArray, *, block: int, n_boot: int, level: float,
     """
     sq = residual**2
     total = float(np.nansum(sq))
-    n_all = residual.size
+    n_all = int(np.isfinite(residual).sum())
     rows = []
+    valid = np.isfinite(residual)  # NaN in the model's warm-up
     for name, kind, mask in strata_masks(inputs):
-        m = np.broadcast_to(mask if mask.ndim == 2 else mask[:, None], residual.shape)
+        m = np.broadcast_to(mask if mask.ndim == 2 else mask[:, None], residual.shape) & valid
         if not m.any():
             continue
         frames = m.any(axis=1)

@@ -84,6 +84,8 @@ def test_clear_errors():
         diagnose(zoo.make("capstan-simple"), train, settings=DiagnosisSettings(folds=3))
     with pytest.raises(ConfigError, match="folds"):
         DiagnosisSettings(folds=1)
+    with pytest.raises(ConfigError, match="warmup_s"):  # longer than any trajectory: said, not a crash
+        diagnose(zoo.make("capstan-simple", warmup_s=100.0).fit(train), train, train, "sensor_bias")
 
 
 def test_candidates_already_in_the_base_are_skipped():
