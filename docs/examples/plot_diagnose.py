@@ -13,10 +13,11 @@ See :doc:`../guide/diagnosis` for the method.
 # A robot with an effect the model leaves out
 # -------------------------------------------
 #
-# A case of the withheld-effect benchmark: ``snake12-paper``'s robot and friction law, with
-# contact and stick/slip (the baseline's own structure) plus a viscoelastic lag at its
-# documented default (``tau_v = 1.5 s``, ``kappa = 0.04`` per guide). Training and test data
-# are independent runs of planned paths and terminal scans.
+# A case of the withheld-effect benchmark: ``snake12-paper``'s robot with a friction law the
+# baseline can represent (``snake12-noise-only``'s), contact and stick/slip (the baseline's
+# own structure), plus a viscoelastic lag at its documented default (``tau_v = 1.5 s``,
+# ``kappa = 0.04`` per guide). Training and test data are independent runs of planned paths
+# and terminal scans.
 
 import matplotlib.pyplot as plt
 

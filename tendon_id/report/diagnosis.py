@@ -25,6 +25,7 @@ def gap_map_figure(result: DiagnosisResult):
     ax.legend(fontsize=8, loc="lower right")
     ax.grid(axis="x", alpha=0.3)
     ax.set_title("Where the base's held-out error lies")
+    fig.tight_layout()
     return fig
 
 
@@ -44,6 +45,7 @@ def ladder_figure(result: DiagnosisResult):
     ax.set_ylabel("held-out terminal RMSE [N]")
     ax.legend(fontsize=8)
     ax.set_title("How far the gap shrinks")
+    fig.tight_layout()
     return fig
 
 
@@ -63,6 +65,7 @@ def residual_figure(result: DiagnosisResult):
         ax.set_xlabel("signature regressor [N]", fontsize=8)
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("base residual [N]")
+    fig.tight_layout()
     return fig
 
 
