@@ -106,12 +106,6 @@ def _read_all(paths: list[Path]):
     return [Recording.read(p) for p in paths]
 
 
-def _read_one(path: Path):
-    from tendon_id.data import Recording
-
-    return Recording.read(path)
-
-
 def _write_json(path: Path, obj: dict) -> None:
     from tendon_id.atomic import write_json_atomic
 
@@ -226,6 +220,8 @@ def benchmark(
     if name == "latency":
         kwargs.update(seed=seed)
     if name == "diagnosis":
+        if recipe:
+            raise TendonIdError("--recipe: the diagnosis benchmark simulates its own cases (see its guide)")
         kwargs.update(seed=seed, quick=quick, backend=backend, n_jobs=jobs)
     result = run_benchmark(name, preset=preset, **kwargs)
     typer.echo(format_table(result))
@@ -305,7 +301,7 @@ def diagnose(
     model = zoo.load_model(base) if Path(base).is_dir() else zoo.make(base)
     check_base(model)
     train = _read_all(data)
-    held = [_read_one(p) for p in test] if test else None
+    held = _read_all(test) if test else None
     result = run(model, train, held, names, settings=DiagnosisSettings(seed=seed), n_jobs=jobs)
     path = write_report(result, out, json_out)
     typer.echo(result.summary())

@@ -126,7 +126,7 @@ def run_cases(cases: list[Case], *, backend: str = "loky", n_jobs: int = 1) -> l
 
 
 def diagnosis_benchmark(
-    *, quick: bool = False, seed: int = 0, n_jobs: int = 1, backend: str = "loky", preset: str = "fast", **_
+    *, quick: bool = False, seed: int = 0, n_jobs: int = 1, backend: str = "loky", preset: str = "fast"
 ) -> dict:
     """Run every case as a joblib job and summarise (``preset`` is unused: no learned model is involved)."""
     t0 = time.perf_counter()

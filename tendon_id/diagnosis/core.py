@@ -128,7 +128,7 @@ def diagnose(
     floor, noise_source = noise_floor(splits[0].test_noise, base_score.fits[0].model, heldout, e0, rng)
 
     # Candidates: localised on all training data with the base fit, then refitted per split.
-    full_train = stack([s.train for s in splits]) if test_recs is not None else _whole(splits)
+    full_train = splits[0].train if test_recs is not None else heldout  # CV: the held-out folds are all of it
     resid_train = full_train.terminal - base.terminal_reading(full_train, *start)
     blocks = {n: EFFECT_BLOCKS[n].localise(base, full_train, *start, resid_train) for n in names}
     structures = [base.with_blocks(b) for b in blocks.values()]
@@ -160,7 +160,8 @@ def diagnose(
     ranked = [results[i] for i in order]
 
     # Where, and the library of signatures on the held-out frames.
-    library = Library.build(blocks, base, heldout, *_stacked_law(base_score, splits, heldout), base.block_params_)
+    law = base_score.fits[0].model  # the signatures are shapes, not magnitudes: one split's law will do
+    library = Library.build(blocks, base, heldout, law.A_, law.B_, base.block_params_)
     where = gap_map(heldout, e0, block=block, n_boot=settings.n_boot, level=1 - settings.alpha, rng=rng)
     vote, shares = library.sparse_vote(e0)
 
@@ -213,7 +214,7 @@ def diagnose(
         noise_floor=floor,
         noise_source=noise_source,
         validation=validation,
-        n_train=int(sum(s.train.n_frames for s in splits[:1])),
+        n_train=int(splits[0].train.n_frames),
         n_heldout=int(heldout.n_frames),
         where=where,
         whiteness={"ljung_box_p": ljung_box_p(e0), "lags": 10},
@@ -230,11 +231,6 @@ def diagnose(
         plots=_plot_data(library, e0, [c.effect for c in ranked[:3]], rng),
         seconds=time.perf_counter() - t0,
     )
-
-
-def _whole(splits):
-    """All training frames of a cross-validation: the held-out folds together, in session order."""
-    return stack([s.test for s in splits])
 
 
 def _closed(mse0: float, mse: float, floor: float) -> float:
@@ -306,12 +302,6 @@ def _merge(current, single) -> tuple:
     values = dict(current.block_params_)
     values.update({k: v for k, v in single.block_params_.items() if k not in values})
     return current.A_, current.B_, values
-
-
-def _stacked_law(base_score, splits, heldout):
-    """The base law of the first split (the signatures are shapes, not magnitudes)."""
-    m = base_score.fits[0].model
-    return m.A_, m.B_
 
 
 def _plot_data(library: Library, residual, effects: list[str], rng) -> dict:

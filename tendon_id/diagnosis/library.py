@@ -44,8 +44,9 @@ class Library:
     def build(cls, candidates: dict, base, inputs, A, B, values) -> Library:
         """The signatures of ``candidates`` (``{effect: Block}``) for ``base`` with law ``(A, B)`` on ``inputs``."""
         labels, effects, cols = [], [], []
+        reading = base.terminal_reading(inputs, A, B, values)
         for effect, block in candidates.items():
-            for label, col in block.signature(base, inputs, A, B, values).items():
+            for label, col in block.signature(base, inputs, A, B, values, reading).items():
                 labels.append(label)
                 effects.append(effect)
                 cols.append(col)

@@ -74,7 +74,7 @@ class Fit:
         return n * np.log(max(self.sse, 1e-300) / self.n_obs) + self.n_params * np.log(n)
 
 
-def _law_stack(model: CapstanModel, A: NDArray, B: NDArray, layout: LawLayout) -> NDArray:
+def _law_stack(A: NDArray, B: NDArray, layout: LawLayout) -> NDArray:
     return np.concatenate([layout.to_free(layout.join(A[:, i], B[:, i])) for i in range(3)])
 
 
@@ -122,7 +122,7 @@ def refit(
     b0 = np.clip(np.array([start_vals[b][q] for b, q in names], dtype=float), blo + inset, bhi - inset)
     zlb, zub = layout.free_bounds()
     lb, ub = np.r_[np.tile(zlb, 3), blo], np.r_[np.tile(zub, 3), bhi]
-    z0 = np.clip(np.r_[_law_stack(structure, A, B, layout), b0], lb, ub)
+    z0 = np.clip(np.r_[_law_stack(A, B, layout), b0], lb, ub)
     keep = inputs.since_start >= float(structure.warmup_s)
     if not keep.any():
         longest = max(b - a for a, b in inputs.trajectory_bounds) * inputs.dt

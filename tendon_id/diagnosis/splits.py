@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,17 +30,13 @@ def meta_noise(recs: list[Recording]) -> float | None:
     return None
 
 
+#: The per-frame arrays of :class:`TransmissionInputs` (the rest is shared by all frames).
+FRAME_FIELDS = ("angles", "actuator", "terminal", "reset", "clock")
+
+
 def subset(inputs: TransmissionInputs, mask: np.ndarray) -> TransmissionInputs:
     """The frames of whole trajectories in ``mask``, keeping their session clock."""
-    return TransmissionInputs(
-        angles=inputs.angles[mask],
-        actuator=inputs.actuator[mask],
-        terminal=inputs.terminal[mask],
-        reset=inputs.reset[mask],
-        clock=inputs.clock[mask],
-        dt=inputs.dt,
-        geometry=inputs.geometry,
-    )
+    return dataclasses.replace(inputs, **{f: getattr(inputs, f)[mask] for f in FRAME_FIELDS})
 
 
 def make_splits(train: list[Recording], test: list[Recording] | None, geometry, folds: int) -> tuple[list[Split], str]:
@@ -81,12 +78,4 @@ def stack(parts: list[TransmissionInputs]) -> TransmissionInputs:
     """The held-out frames of every split, one after the other (clocks kept)."""
     if len(parts) == 1:
         return parts[0]
-    return TransmissionInputs(
-        angles=np.concatenate([p.angles for p in parts]),
-        actuator=np.concatenate([p.actuator for p in parts]),
-        terminal=np.concatenate([p.terminal for p in parts]),
-        reset=np.concatenate([p.reset for p in parts]),
-        clock=np.concatenate([p.clock for p in parts]),
-        dt=parts[0].dt,
-        geometry=parts[0].geometry,
-    )
+    return dataclasses.replace(parts[0], **{f: np.concatenate([getattr(p, f) for p in parts]) for f in FRAME_FIELDS})

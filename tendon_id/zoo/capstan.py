@@ -186,10 +186,14 @@ class CapstanModel(TransmissionModel):
         tendons: NDArray | None = None,
     ) -> ExponentTerms:
         """The law-free part of the exponent (wrap and exponent blocks), reusable while only the law changes."""
+        return exponent_terms(self.block_objects, inputs, *self._chain_defaults(inputs, values, sets, tendons))
+
+    def _chain_defaults(self, inputs, values, sets, tendons) -> tuple[dict, NDArray, NDArray]:
+        """``values``, ``sets`` and ``tendons`` with their defaults: the blocks' values, every set, every tendon."""
         values = self.block_params() if values is None else values
         sets = np.arange(inputs.n_modules) if sets is None else np.asarray(sets)
         tendons = np.arange(3) if tendons is None else np.asarray(tendons)
-        return exponent_terms(self.block_objects, inputs, values, sets, tendons)
+        return values, sets, tendons
 
     def exponent(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None) -> NDArray:
         """Capstan exponent ``phi[t, k, j, i]`` (paper Eq. (5) with the blocks), shape (T, N-1, N|1, m).
@@ -230,9 +234,7 @@ class CapstanModel(TransmissionModel):
         terms : ExponentTerms, optional
             Precomputed :meth:`exponent_terms` for these sets and tendons.
         """
-        values = self.block_params() if values is None else values
-        sets = np.arange(inputs.n_modules) if sets is None else np.asarray(sets)
-        tendons = np.arange(3) if tendons is None else np.asarray(tendons)
+        values, sets, tendons = self._chain_defaults(inputs, values, sets, tendons)
         return propagate_chain(
             self.block_objects, self.mu_law, inputs, A, B, values, sets, tendons, keep_chain=keep_chain, terms=terms
         )
@@ -247,9 +249,7 @@ class CapstanModel(TransmissionModel):
         terms: ExponentTerms | None = None,
     ) -> NDArray:
         """Predicted terminal load-cell reading [N], shape (T, m) (the sensor blocks applied)."""
-        values = self.block_params() if values is None else values
-        sets = np.array([inputs.n_modules - 1])
-        tendons = np.arange(3) if tendons is None else np.asarray(tendons)
+        values, sets, tendons = self._chain_defaults(inputs, values, np.array([inputs.n_modules - 1]), tendons)
         log_t = self.propagate(inputs, A, B, values, sets=sets, tendons=tendons, keep_chain=False, terms=terms)
         return apply_sensor(self.block_objects, np.exp(log_t[:, 0]), Passage(inputs, sets, tendons), values)
 

@@ -34,7 +34,6 @@ themselves in :data:`BLOCK_TYPES`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
@@ -81,10 +80,6 @@ class Passage:
         """Wrap at ``guide`` for the sets passing it, shape ``(T, S_g, m)`` or ``(T, 1, 1)`` [rad]."""
         a = self.alpha[:, self.guide]
         return a[:, self.active] if a.shape[1] > 1 else a
-
-    @cached_property
-    def set_numbers(self) -> tuple[int, ...]:
-        return tuple(int(s) for s in self.sets)
 
 
 @dataclass(frozen=True)
@@ -155,7 +150,9 @@ class Block:
         base = self.initial()
         return [(f"{self.effect or self.name}:{p}", {**base, p: float(self.probe[p])}) for p in self.param_names]
 
-    def signature(self, model, inputs, A: NDArray, B: NDArray, values: dict) -> dict[str, NDArray]:
+    def signature(
+        self, model, inputs, A: NDArray, B: NDArray, values: dict, base: NDArray | None = None
+    ) -> dict[str, NDArray]:
         """The block's signature regressors: what adding it changes in the terminal reading [N].
 
         ``T_hat(base + block at a probe) - T_hat(base)``, per column of :meth:`probes`, with
@@ -171,13 +168,16 @@ class Block:
             The base's law.
         values : dict
             The base's block parameters.
+        base : ndarray, shape (T, 3), optional
+            The base's terminal reading with that law, if already computed [N].
 
         Returns
         -------
         dict of str to ndarray, shape (T, 3)
         """
         augmented = model.with_blocks(self)
-        base = model.terminal_reading(inputs, A, B, values)
+        if base is None:
+            base = model.terminal_reading(inputs, A, B, values)
         out = {}
         for label, probe in self.probes():
             out[label] = augmented.terminal_reading(inputs, A, B, {**values, self.name: probe}) - base
