@@ -25,7 +25,7 @@ PAIRS = (
     ("guide_wear", "viscoelastic"),
     ("sensor_bias", "bending_stiffness"),
 )
-FULL = {"seeds": 5, "null_seeds": 10, "frames": 1000}
+FULL = {"seeds": 5, "null_seeds": 20, "frames": 1000}
 QUICK = {"seeds": 1, "null_seeds": 1, "frames": 1000}
 
 
@@ -68,7 +68,9 @@ def run_case(case: Case) -> dict:
         "base_rmse": result.base_rmse,
         "ladder_rmse": result.ladder[-1].heldout_rmse,
         "noise_floor": result.noise_floor,
+        "noise_floor_upper": result.noise_floor_upper,
         "oracle_rmse": None,
+        "detectable": None,
     }
     lib = tuple(e for e in case.truth if e not in OUT_OF_LIBRARY)
     if lib:
@@ -78,8 +80,32 @@ def run_case(case: Case) -> dict:
         fit = refit(structure, inputs, base.A_, base.B_, structure.block_params())
         e = heldout_residual(fit.model, base.inputs(test))
         row["oracle_rmse"] = float(np.sqrt(np.nanmean(e**2)))
+        row["detectable"] = _detectable(result, heldout_residual(base, base.inputs(test)), e, test[0].sample_rate_hz)
     row["seconds"] = time.perf_counter() - t0
     return row
+
+
+def _detectable(result, e_base, e_oracle, rate_hz: float) -> bool:
+    """Whether the true structure itself passes the diagnosis's tests on this case.
+
+    It does when the base's gap exceeds what the sensors alone give (the ``none`` rule of
+    :func:`~tendon_id.diagnosis.verdict.decide`) and the oracle refit's held-out improvement
+    over the base is significant (the first rung's test, without the Bonferroni factor).  A
+    case that fails it carries its effect below what these data can show, so no diagnosis
+    could name it; the benchmark reports top-1 over these cases too, beside the plain one.
+    """
+    from tendon_id.diagnosis import DiagnosisSettings
+    from tendon_id.diagnosis.stats import bootstrap_ci
+
+    s = DiagnosisSettings()
+    mse0 = float(np.nanmean(e_base**2))
+    if mse0 <= result.noise_floor_upper**2 * (1.0 + s.min_excess):
+        return False
+    sq = (e_base**2 - e_oracle**2).mean(axis=1)
+    sq = sq[np.isfinite(sq)]
+    block = max(int(round(s.block_s * rate_hz)), 1)
+    lo, _ = bootstrap_ci(sq, block, s.n_boot, 1 - 2 * s.alpha, np.random.default_rng(s.seed))
+    return bool(lo > 0)
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -91,11 +117,17 @@ def summarise(rows: list[dict]) -> dict:
         if r["kind"] in ("single", "null", "out-of-library"):
             truth = r["truth"][0] if r["truth"] else "none"
             confusion.setdefault(truth, Counter())[r["label"]] += 1
-    top1 = {}
+    top1, detectable = {}, {}
     for mag in MAGNITUDES:
         sel = [r for r in rows if r["kind"] == "single" and r["magnitude"] == mag]
         if sel:
             top1[mag] = sum(r["label"] == r["truth"][0] for r in sel) / len(sel)
+            seen = [r for r in sel if r.get("detectable")]
+            detectable[mag] = {
+                "cases": len(seen),
+                "of": len(sel),
+                "top1": (sum(r["label"] == r["truth"][0] for r in seen) / len(seen)) if seen else None,
+            }
     null = [r for r in rows if r["kind"] == "null"]
     ool = [r for r in rows if r["kind"] == "out-of-library"]
     pairs = [r for r in rows if r["kind"] == "pair"]
@@ -109,6 +141,7 @@ def summarise(rows: list[dict]) -> dict:
         "confusion": {t: {c: confusion[t].get(c, 0) for c in columns} for t in confusion},
         "columns": columns,
         "top1": top1,
+        "top1_detectable": detectable,
         "null_false_alarm": (sum(r["label"] != "none" for r in null) / len(null)) if null else None,
         "ool_named": (sum(r["label"] in library for r in ool) / len(ool)) if ool else None,
         "pair_recovered": (sum(set(r["truth"]) <= set(r["ladder"][:2]) for r in pairs) / len(pairs)) if pairs else None,
@@ -151,7 +184,12 @@ def format_diagnosis(r: dict) -> str:
     for truth, counts in r["confusion"].items():
         lines.append(f"  {truth:18s} " + " ".join(f"{counts[c]:6d}" for c in cols))
     for mag, acc in r["top1"].items():
-        lines.append(f"top-1 at {mag} magnitude: {acc:.0%}")
+        d = r.get("top1_detectable", {}).get(mag)
+        extra = ""
+        if d:
+            extra = f"  (the true structure itself passes the tests in {d['cases']} of {d['of']} cases"
+            extra += f"; top-1 on those: {d['top1']:.0%})" if d["top1"] is not None else ")"
+        lines.append(f"top-1 at {mag} magnitude: {acc:.0%}{extra}")
 
     def pct(v):
         return "n/a" if v is None else f"{v:.0%}"

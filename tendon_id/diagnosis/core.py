@@ -125,7 +125,16 @@ def diagnose(
     base_score = scorer.score([base], [[start] * len(splits)], "refit base")[0]
     e0 = base_score.residual
     mse0 = float(np.nanmean(e0**2))
-    floor, noise_source = noise_floor(splits[0].test_noise, base_score.fits[0].model, heldout, e0, rng)
+    floor_sim = noise_floor(
+        splits[0].noise,
+        base_score.fits[0].model,
+        heldout,
+        e0,
+        rng,
+        draws=settings.floor_draws,
+        level=1 - settings.alpha,
+    )
+    floor = floor_sim.rmse
 
     # Candidates: localised on all training data with the base fit, then refitted per split.
     full_train = splits[0].train if test_recs is not None else heldout  # CV: the held-out folds are all of it
@@ -207,12 +216,13 @@ def diagnose(
                 f"{c.effect}: {', '.join(c.at_bound)} reached the edge of its plausible range; the effect it stands "
                 "in for may be outside the library"
             )
-    verdict = decide(mse0, floor, excess_ci, ladder, settings, strained)
+    verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained)
     return DiagnosisResult(
         base=base.name,
         base_rmse=float(np.sqrt(mse0)),
         noise_floor=floor,
-        noise_source=noise_source,
+        noise_floor_upper=floor_sim.upper,
+        noise_source=floor_sim.source,
         validation=validation,
         n_train=int(splits[0].train.n_frames),
         n_heldout=int(heldout.n_frames),

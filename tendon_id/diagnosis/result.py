@@ -125,6 +125,8 @@ class DiagnosisResult:
         The base model's zoo name.
     base_rmse, noise_floor : float
         Held-out terminal RMSE of the (refitted) base, and of a perfect model [N].
+    noise_floor_upper : float
+        The ``1 - alpha`` quantile of a perfect model's RMSE over simulated sensor draws [N].
     noise_source : str
     validation : str
         ``"test"`` or the cross-validation used.
@@ -153,6 +155,7 @@ class DiagnosisResult:
     base: str
     base_rmse: float
     noise_floor: float
+    noise_floor_upper: float
     noise_source: str
     validation: str
     n_train: int
@@ -176,7 +179,12 @@ class DiagnosisResult:
         """The JSON form: ``base``, ``gap``, ``where``, ``candidates``, ``ladder``, ``verdict`` and more."""
         return {
             "base": self.base,
-            "gap": {"base_rmse": self.base_rmse, "noise_floor": self.noise_floor, "noise_source": self.noise_source},
+            "gap": {
+                "base_rmse": self.base_rmse,
+                "noise_floor": self.noise_floor,
+                "noise_floor_upper": self.noise_floor_upper,
+                "noise_source": self.noise_source,
+            },
             "where": [s.to_dict() for s in self.where],
             "candidates": [c.to_dict() for c in self.candidates],
             "ladder": [r.to_dict() for r in self.ladder],
@@ -200,7 +208,7 @@ class DiagnosisResult:
         """A few lines for a terminal."""
         lines = [
             f"base {self.base}: held-out RMSE {self.base_rmse:.2f} N, noise floor {self.noise_floor:.2f} N "
-            f"({self.validation})",
+            f"(up to {self.noise_floor_upper:.2f} N; {self.validation})",
             f"verdict: {self.verdict.text}",
         ]
         for r in self.ladder:

@@ -25,11 +25,13 @@ class DiagnosisSettings:
         a model that misses slow physics are correlated over seconds, and blocks this long
         keep that correlation in every resample.
     min_excess : float
-        No gap is reported when the base's held-out mean squared error exceeds the noise
-        floor's by less than this share of the floor's [-].  The default 0.25 (an RMSE within
-        12 % of the floor) sits above the share a nonsmooth base keeps from driving its play
-        operator with noisy actuator readings (errors in variables, which a wider stick band,
-        e.g. a bending loss, partly absorbs), so that share is not mistaken for an effect.
+        No gap is reported when the base's held-out mean squared error exceeds the upper
+        quantile (at ``1 - alpha``) of a perfect model's by less than this share of it [-]
+        (:func:`~tendon_id.diagnosis.stats.noise_floor`).  A practical margin: the simulated
+        sensors are an estimate (their clean signals are smoothed readings), and a gap of a
+        tenth of the floor's RMSE is not worth a new block.
+    floor_draws : int
+        Simulated measurement draws of the noise floor.
     explained_share : float
         Share of the gap above the noise floor a ladder must close to call it explained [-].
     named_share : float
@@ -52,6 +54,7 @@ class DiagnosisSettings:
     n_boot: int = 500
     block_s: float = 5.0
     min_excess: float = 0.25
+    floor_draws: int = 20
     explained_share: float = 0.8
     named_share: float = 0.5
     ladder_width: int = 3
@@ -67,6 +70,7 @@ class DiagnosisSettings:
             (self.n_boot >= 50, "n_boot must be >= 50"),
             (self.block_s > 0, "block_s must be a positive time in s"),
             (self.min_excess >= 0, "min_excess must be >= 0"),
+            (self.floor_draws >= 5, "floor_draws must be >= 5"),
             (0 < self.named_share <= self.explained_share <= 1, "need 0 < named_share <= explained_share <= 1"),
             (self.ladder_width >= 1 and self.max_rungs >= 1, "ladder_width and max_rungs must be >= 1"),
             (0 < self.confound_corr <= 1, "confound_corr must lie in (0, 1]"),

@@ -18,16 +18,35 @@ class Split:
 
     train: TransmissionInputs
     test: TransmissionInputs
-    test_noise: float | None
+    noise: MeasurementNoise
 
 
-def meta_noise(recs: list[Recording]) -> float | None:
-    """The load-cell noise [N] the recordings' metadata declare, if they all agree."""
-    values = {(r.meta.get("sensors") or {}).get("noise_n") for r in recs}
-    if len(values) == 1:
-        v = values.pop()
-        return float(v) if v is not None else None
-    return None
+@dataclass(frozen=True)
+class MeasurementNoise:
+    """The sensors' noise the recordings' metadata declare (None where unknown).
+
+    Attributes
+    ----------
+    load_cell : float or None
+        Load-cell noise standard deviation [N].
+    encoder_step : float or None
+        Encoder quantum [rad] (``2 pi / 2**encoder_bits``).
+    """
+
+    load_cell: float | None = None
+    encoder_step: float | None = None
+
+    @classmethod
+    def from_recordings(cls, recs: list[Recording]) -> MeasurementNoise:
+        """The sensors' noise, where every recording declares the same."""
+
+        def agreed(key: str):
+            values = {(r.meta.get("sensors") or {}).get(key) for r in recs}
+            v = values.pop() if len(values) == 1 else None
+            return float(v) if v is not None else None
+
+        bits = agreed("encoder_bits")
+        return cls(agreed("noise_n"), 2.0 * np.pi / 2**bits if bits else None)
 
 
 #: The per-frame arrays of :class:`TransmissionInputs` (the rest is shared by all frames).
@@ -56,7 +75,9 @@ def make_splits(train: list[Recording], test: list[Recording] | None, geometry, 
     n_train = sum(r.n_frames for r in train)
     if test is not None:
         is_train = np.arange(everything.n_frames) < n_train
-        split = Split(subset(everything, is_train), subset(everything, ~is_train), meta_noise(test))
+        split = Split(
+            subset(everything, is_train), subset(everything, ~is_train), MeasurementNoise.from_recordings(test)
+        )
         return [split], "held-out test data"
     traj = np.concatenate([np.char.add(f"{k}/", r.trajectory_ids.astype(str)) for k, r in enumerate(train)])
     _, first = np.unique(traj, return_index=True)
@@ -66,7 +87,7 @@ def make_splits(train: list[Recording], test: list[Recording] | None, geometry, 
             f"cross-validation by trajectory needs at least {folds} trajectories, the training data has {len(ids)}; "
             "pass held-out test data (--test) or more trajectories"
         )
-    noise = meta_noise(train)
+    noise = MeasurementNoise.from_recordings(train)
     splits = []
     for group in np.array_split(ids, folds):
         held = np.isin(traj, group)

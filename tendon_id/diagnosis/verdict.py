@@ -2,20 +2,32 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from tendon_id.diagnosis.result import Verdict
+from tendon_id.diagnosis.stats import NoiseFloor
 
 
 def decide(
-    mse0: float, floor: float, excess_ci: tuple[float, float], ladder: list, settings, strained: set | frozenset = ()
+    mse0: float,
+    floor: NoiseFloor,
+    excess_ci: tuple[float, float],
+    ladder: list,
+    settings,
+    strained: set | frozenset = (),
 ) -> Verdict:
     """Read the verdict off the base's gap and the ladder.
 
-    * ``none``: the base's held-out mean squared error is within ``min_excess`` of the noise
-      floor's, or its excess is not significant.
+    * ``none``: the base's held-out mean squared error is within ``min_excess`` of the upper
+      quantile of a perfect model's (what the sensors alone can produce), or its excess over
+      the expected floor is not significant.
     * ``unexplained``: a gap, and no candidate closes a significant part of it, or the ladder
       closes less than ``named_share`` of it (a candidate that only mimics an effect outside
       the library is not named).
-    * ``explained``: the ladder closes at least ``explained_share``; ``partial`` in between.
+    * ``explained``: the ladder closes at least ``explained_share``, or what it leaves is
+      within what the sensors alone give (the ``none`` rule applied to the ladder's error: the
+      share closed is measured from the expected floor, and one realisation of the sensors
+      can sit well above it); ``partial`` in between.
 
     The ladder is read only up to its first ``strained`` effect: a block whose fit reached the
     far edge of its plausible range is mimicking something, and is not named.
@@ -24,18 +36,25 @@ def decide(
     ----------
     mse0 : float
         Base's held-out mean squared error [N^2].
-    floor : float
-        Noise floor [N].
+    floor : NoiseFloor
+        The noise floor and its upper quantile [N].
     excess_ci : tuple of float
-        Bootstrap interval of ``mse0 - floor^2`` [N^2].
+        Bootstrap interval of ``mse0 - floor.rmse^2`` [N^2].
     ladder : list of Rung
         The base, then each accepted rung.
     settings : DiagnosisSettings
     strained : set of str
         Effects whose fitted parameters reached a bound.
     """
-    if mse0 <= floor**2 * (1.0 + settings.min_excess) or not excess_ci[0] > 0:
-        return Verdict("none", [], 0.0, f"no significant gap: the base is within the noise floor ({floor:.2f} N)")
+    within = floor.upper**2 * (1.0 + settings.min_excess)
+    if mse0 <= within or not excess_ci[0] > 0:
+        return Verdict(
+            "none",
+            [],
+            0.0,
+            f"no significant gap: the base's {np.sqrt(mse0):.2f} N is within what the sensors alone give "
+            f"(noise floor {floor.rmse:.2f} N, up to {floor.upper:.2f} N)",
+        )
     if len(ladder) >= 2 and ladder[1].effects[-1] in strained:
         e = ladder[1].effects[-1]
         return Verdict(
@@ -52,6 +71,14 @@ def decide(
     closed = min(max(ladder[-1].gap_closed, 0.0), 1.0)
     effects = [e for e in ladder[-1].effects if e != "base"]
     remaining = 1.0 - closed
+    if ladder[-1].heldout_rmse ** 2 <= within:
+        return Verdict(
+            "explained",
+            effects,
+            remaining,
+            f"explained by {', '.join(effects)}: what remains ({ladder[-1].heldout_rmse:.2f} N) is within what the "
+            "sensors alone give",
+        )
     if closed >= settings.explained_share:
         return Verdict("explained", effects, remaining, f"explained by {', '.join(effects)} ({closed:.0%} of the gap)")
     if closed >= settings.named_share:

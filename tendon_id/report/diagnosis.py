@@ -74,7 +74,8 @@ def report_page(result: DiagnosisResult) -> HtmlPage:
     page.paragraph(f"Verdict: {result.verdict.text}.")
     page.paragraph(
         f"Held-out terminal RMSE of the base {result.base_rmse:.3g} N against a noise floor of "
-        f"{result.noise_floor:.3g} N ({result.noise_source}); {result.validation}, {result.n_heldout} held-out frames. "
+        f"{result.noise_floor:.3g} N (upper quantile over simulated sensor draws: {result.noise_floor_upper:.3g} N; "
+        f"{result.noise_source}); {result.validation}, {result.n_heldout} held-out frames. "
         f"Ljung–Box p-values of the base residual per tendon (lag {result.whiteness.get('lags')}): "
         + ", ".join(("< 0.001" if p < 1e-3 else f"{p:.2g}") for p in result.whiteness.get("ljung_box_p", []))
         + " (small: the residual is not white, something systematic is left).",

@@ -138,14 +138,24 @@ def test_cli_writes_the_report_and_json_and_refuses_bad_input(tmp_path):
 
 def test_verdict_rules_by_hand():
     from tendon_id.diagnosis.result import Rung
+    from tendon_id.diagnosis.stats import NoiseFloor
     from tendon_id.diagnosis.verdict import decide
 
     s = DiagnosisSettings()
     base = Rung(["base"], 5.0, 0.0)
     one = Rung(["base", "viscoelastic"], 1.2, 0.95)
     two = Rung(["base", "viscoelastic", "sensor_bias"], 1.1, 0.97)
-    floor = 1.0
+    floor = NoiseFloor(rmse=1.0, upper=1.0, source="by hand")
     assert decide(1.05, floor, (-0.1, 0.2), [base], s).kind == "none"  # within the floor
+    # A significant excess over the expected floor is still none while the sensors alone reach it.
+    wide = NoiseFloor(rmse=1.0, upper=1.5, source="by hand")
+    assert decide(2.5, wide, (0.5, 2.0), [base], s).kind == "none"
+    assert decide(3.0, wide, (1.0, 3.0), [base], s).kind == "unexplained"  # 3.0 > 1.25 * 1.5**2
+    # A ladder that leaves only what the sensors give explains the gap, whatever share it closed.
+    near = Rung(["base", "guide_wear"], 1.6, 0.4)
+    v = decide(25.0, wide, (20.0, 30.0), [base, near], s)
+    assert (v.kind, v.effects) == ("explained", ["guide_wear"])
+    assert decide(25.0, floor, (20.0, 30.0), [base, near], s).kind == "unexplained"  # 1.6**2 > 1.25 * 1.0**2
     assert decide(25.0, floor, (20.0, 30.0), [base], s).kind == "unexplained"
     v = decide(25.0, floor, (20.0, 30.0), [base, one, two], s)
     assert (v.kind, v.effects) == ("explained", ["viscoelastic", "sensor_bias"])
@@ -157,3 +167,27 @@ def test_verdict_rules_by_hand():
     assert decide(25.0, floor, (20.0, 30.0), [base, one, two], s, {"viscoelastic"}).kind == "unexplained"
     v = decide(25.0, floor, (20.0, 30.0), [base, one, two], s, {"sensor_bias"})
     assert v.effects == ["viscoelastic"]
+
+
+def test_noise_floor_of_a_ratio_model_is_the_propagated_noise():
+    """A smooth capstan passes actuator noise through its ratio: floor^2 = sigma^2 (1 + mean ratio^2)."""
+    from tendon_id.diagnosis.splits import MeasurementNoise
+    from tendon_id.diagnosis.stats import noise_floor
+
+    rec = _data((), 5, 600)
+    model = zoo.make("capstan-simple").fit(rec)
+    inputs = model.inputs(rec)
+    sigma = 2.0
+    floor = noise_floor(
+        MeasurementNoise(sigma, None), model, inputs, np.zeros((inputs.n_frames, 3)), np.random.default_rng(0)
+    )
+    ratio = (
+        model.terminal_reading(inputs, model.A_, model.B_, model.block_params_) / inputs.actuator[:, -1]
+    )  # set N drives the terminal
+    expected = sigma * np.sqrt(1.0 + np.mean(ratio**2))
+    assert floor.rmse == pytest.approx(expected, rel=0.03)
+    assert floor.rmse <= floor.upper < 1.1 * floor.rmse  # a ratio does not ratchet: little spread
+    quantised = noise_floor(MeasurementNoise(sigma, 2 * np.pi / 2**12), model, inputs, None, np.random.default_rng(0))
+    assert quantised.rmse >= 0.99 * floor.rmse and "encoder" in quantised.source
+    diff = noise_floor(MeasurementNoise(), model, inputs, np.random.default_rng(1).normal(0, 1.5, (600, 3)), None)
+    assert diff.rmse == pytest.approx(1.5, rel=0.1) and diff.upper == diff.rmse
