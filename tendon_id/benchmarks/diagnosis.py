@@ -95,11 +95,12 @@ def _detectable(result, e_base, e_oracle, rate_hz: float) -> bool:
     could name it; the benchmark reports top-1 over these cases too, beside the plain one.
     """
     from tendon_id.diagnosis import DiagnosisSettings
-    from tendon_id.diagnosis.stats import bootstrap_ci
+    from tendon_id.diagnosis.stats import NoiseFloor, bootstrap_ci
+    from tendon_id.diagnosis.verdict import within_sensors
 
     s = DiagnosisSettings()
-    mse0 = float(np.nanmean(e_base**2))
-    if mse0 <= result.noise_floor_upper**2 * (1.0 + s.min_excess):
+    floor = NoiseFloor(result.noise_floor, result.noise_floor_upper, result.noise_source)
+    if within_sensors(float(np.nanmean(e_base**2)), floor, s):
         return False
     sq = (e_base**2 - e_oracle**2).mean(axis=1)
     sq = sq[np.isfinite(sq)]

@@ -8,6 +8,15 @@ from tendon_id.diagnosis.result import Verdict
 from tendon_id.diagnosis.stats import NoiseFloor
 
 
+def within_sensors(mse: float, floor: NoiseFloor, settings) -> bool:
+    """Whether a held-out mean squared error [N^2] is within what the sensors alone give.
+
+    It is when it is at most ``1 + min_excess`` times the upper quantile of a perfect
+    model's (:func:`~tendon_id.diagnosis.stats.noise_floor`).
+    """
+    return mse <= floor.upper**2 * (1.0 + settings.min_excess)
+
+
 def decide(
     mse0: float,
     floor: NoiseFloor,
@@ -46,8 +55,7 @@ def decide(
     strained : set of str
         Effects whose fitted parameters reached a bound.
     """
-    within = floor.upper**2 * (1.0 + settings.min_excess)
-    if mse0 <= within or not excess_ci[0] > 0:
+    if within_sensors(mse0, floor, settings) or not excess_ci[0] > 0:
         return Verdict(
             "none",
             [],
@@ -71,7 +79,7 @@ def decide(
     closed = min(max(ladder[-1].gap_closed, 0.0), 1.0)
     effects = [e for e in ladder[-1].effects if e != "base"]
     remaining = 1.0 - closed
-    if ladder[-1].heldout_rmse ** 2 <= within:
+    if within_sensors(ladder[-1].heldout_rmse ** 2, floor, settings):
         return Verdict(
             "explained",
             effects,
