@@ -77,13 +77,20 @@ class NoiseFloor:
     source: str
 
 
-def _smooth(x: NDArray, inputs, width: int) -> NDArray:
-    """Moving average of ``width`` frames within each trajectory."""
-    from scipy.ndimage import uniform_filter1d
+def _smooth(x: NDArray, inputs, width: int, *, median: bool = False) -> NDArray:
+    """Moving average (or running median) of ``width`` frames along time, within each trajectory.
+
+    The running median (Tukey 1977) keeps the steps of a step-and-hold protocol sharp,
+    where a moving average would ramp through them; on a monotone ramp both return it.
+    """
+    from scipy.ndimage import median_filter, uniform_filter1d
 
     out = x.copy()
     for a, b in inputs.trajectory_bounds:
-        out[a:b] = uniform_filter1d(x[a:b], size=width, axis=0, mode="nearest")
+        if median:
+            out[a:b] = median_filter(x[a:b], size=(width,) + (1,) * (x.ndim - 1), mode="nearest")
+        else:
+            out[a:b] = uniform_filter1d(x[a:b], size=width, axis=0, mode="nearest")
     return out
 
 
@@ -97,8 +104,8 @@ def noise_floor(
     a noise spike or an encoder step that moves a stick band edge past the tension drags
     the output along and it stays there (a ratchet), so the inherited error is heavy-tailed
     and varies much from one realisation to the next.  It is therefore simulated: from
-    estimates of the clean signals (the actuator cells averaged over 1 s, the angles over
-    3 frames, within each trajectory) each of ``draws`` draws adds ``sigma`` of cell noise
+    estimates of the clean signals (the actuator cells' running median over 1 s, the angles'
+    average over 3 frames, within each trajectory) each of ``draws`` draws adds ``sigma`` of cell noise
     and re-reads the angles on the encoder grid at a random offset (a quantum is a function
     of the true angle, :class:`~tendon_id.sim.Sensors`), and the model's prediction is
     compared with its prediction from the clean estimates.  A draw's mean squared error is
@@ -132,7 +139,7 @@ def noise_floor(
         d = np.diff(residual, axis=0)
         f = float(np.nanstd(d) / np.sqrt(2.0))
         return NoiseFloor(f, f, "first differences of the residual")
-    actuator = _smooth(inputs.actuator, inputs, max(int(round(1.0 / inputs.dt)) | 1, 3))
+    actuator = _smooth(inputs.actuator, inputs, max(int(round(1.0 / inputs.dt)) | 1, 3), median=True)
     step = sensors.encoder_step
     angles = _smooth(inputs.angles, inputs, 3) if step else inputs.angles
     law = (model.A_, model.B_, model.block_params_)
