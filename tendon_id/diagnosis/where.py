@@ -67,15 +67,41 @@ class Stratum:
         }
 
 
-def _quartile_masks(x: NDArray, label: str, unit: str, scale: float = 1.0) -> list[tuple[str, NDArray]]:
-    edges = np.nanquantile(x, [0.0, 0.25, 0.5, 0.75, 1.0])
-    if edges[-1] - edges[0] <= 1e-12 * max(1.0, abs(edges[-1])):
+def quartile_masks(
+    x: NDArray, label: str, unit: str, scale: float = 1.0, least: str | None = None
+) -> list[tuple[str, NDArray]]:
+    """Quartile bands of ``x``, with its least value apart when over a quarter of the frames hold it.
+
+    A joint is at rest in many frames of a held-pose log (its encoder reading does not
+    change), so its speed is 0 in, say, 70 % of them; quartile edges would then coincide and
+    the bands would be empty or lumped.  Those frames become one stratum (named ``least``),
+    and the quartiles are those of the rest.
+
+    Parameters
+    ----------
+    x : ndarray, shape (T,)
+        The variable per frame, in SI units.
+    label, unit : str
+        Its name, and the unit of ``x * scale``.
+    scale : float
+        Factor from SI to the unit shown.
+    least : str, optional
+        Name of the stratum of the least value (default: ``"{label} = {min} {unit}"``).
+    """
+    lo = np.nanmin(x)
+    if np.nanmax(x) - lo <= 1e-12 * max(1.0, abs(lo)):
         return []
     out = []
+    rest = np.ones(x.shape, dtype=bool)
+    at_least = x <= lo
+    if at_least.mean() > 0.25:
+        out.append((least or f"{label} = {lo * scale:.3g} {unit}", at_least))
+        rest = ~at_least
+    edges = np.nanquantile(x[rest], [0.0, 0.25, 0.5, 0.75, 1.0])
     for q in range(4):
-        lo, hi = edges[q], edges[q + 1]
-        mask = (x >= lo) & ((x < hi) if q < 3 else (x <= hi))
-        out.append((f"{label} Q{q + 1} ({lo * scale:.3g}–{hi * scale:.3g} {unit})", mask))
+        a, b = edges[q], edges[q + 1]
+        mask = rest & (x >= a) & ((x < b) if q < 3 else (x <= b))
+        out.append((f"{label} Q{q + 1} ({a * scale:.3g}–{b * scale:.3g} {unit})", mask))
     return out
 
 
@@ -100,18 +126,19 @@ def strata_masks(inputs) -> list[tuple[str, str, NDArray]]:
     stuck = play_operator(np.log(act), REVERSAL_BAND, inputs.reset).sigma == 0
     out.append(("near tension reversals", "reversal", stuck))
     out.append(("away from tension reversals", "reversal", ~stuck))
-    for name, mask in _quartile_masks(wrap.sum(axis=1), "total wrap", "rad"):
+    for name, mask in quartile_masks(wrap.sum(axis=1), "total wrap", "rad"):
         out.append((name, "wrap", mask))
     speed = np.abs(backward_rate(inputs.angles, inputs.reset, inputs.dt)).max(axis=(1, 2))
-    for name, mask in _quartile_masks(speed, "joint speed", "deg/s", np.degrees(1.0)):
+    rest = "joints at rest" if speed.min() == 0 else None
+    for name, mask in quartile_masks(speed, "joint speed", "deg/s", np.degrees(1.0), least=rest):
         out.append((name, "speed", mask))
-    for name, mask in _quartile_masks(act, "actuator tension", "N"):
+    for name, mask in quartile_masks(act, "actuator tension", "N"):
         out.append((name, "tension", mask))
-    for name, mask in _quartile_masks(inputs.clock, "session clock", "s"):
+    for name, mask in quartile_masks(inputs.clock, "session clock", "s"):
         out.append((name, "time", mask))
     # The first seconds of each log: a model that guesses the stick/slip and lag state at a
     # log's start is wrong there until the state is forgotten.
-    for name, mask in _quartile_masks(inputs.since_start, "time since log start", "s"):
+    for name, mask in quartile_masks(inputs.since_start, "time since log start", "s"):
         out.append((name, "start", mask))
     return out
 

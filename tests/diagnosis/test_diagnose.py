@@ -12,6 +12,7 @@ from tendon_id import zoo
 from tendon_id.datasets import load_recipe
 from tendon_id.diagnosis import DiagnosisSettings, diagnose
 from tendon_id.diagnosis.stats import block_bootstrap_means, bootstrap_ci
+from tendon_id.diagnosis.where import quartile_masks
 from tendon_id.errors import ConfigError
 from tendon_id.sim import Effects, simulate
 
@@ -102,6 +103,24 @@ def test_block_bootstrap_means_stay_within_the_data(xs, block, seed):
     assert np.all(means >= x.min() - 1e-9) and np.all(means <= x.max() + 1e-9)
     lo, hi = bootstrap_ci(x, block, 64, 0.9, np.random.default_rng(seed))
     assert lo <= hi
+
+
+@given(st.integers(0, 200), st.lists(st.floats(0.01, 10), min_size=2, max_size=200))
+def test_quartile_strata_partition_the_frames_and_keep_rest_apart(n_rest, moving):
+    speed = np.r_[np.zeros(n_rest), moving]
+    strata = quartile_masks(speed, "joint speed", "deg/s", least="joints at rest")
+    if np.ptp(speed) == 0:
+        assert strata == []
+        return
+    counts = np.sum([m for _, m in strata], axis=0)
+    assert np.all(counts == 1)  # every frame in exactly one stratum
+    least = speed == speed.min()
+    apart = [m for name, m in strata if "Q" not in name]
+    if least.mean() > 0.25:  # a point mass at the least value is its own stratum, not a lumped quartile
+        assert len(apart) == 1 and np.array_equal(apart[0], least)
+        assert sum(m.any() for _, m in strata) >= 2
+    else:
+        assert not apart
 
 
 def test_block_bootstrap_interval_covers_a_known_mean():
