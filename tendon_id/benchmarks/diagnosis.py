@@ -95,17 +95,15 @@ def _detectable(result, e_base, e_oracle, rate_hz: float) -> bool:
     could name it; the benchmark reports top-1 over these cases too, beside the plain one.
     """
     from tendon_id.diagnosis import DiagnosisSettings
-    from tendon_id.diagnosis.stats import NoiseFloor, bootstrap_ci
+    from tendon_id.diagnosis.stats import NoiseFloor, improvement_ci
     from tendon_id.diagnosis.verdict import within_sensors
 
     s = DiagnosisSettings()
     floor = NoiseFloor(result.noise_floor, result.noise_floor_upper, result.noise_source)
     if within_sensors(float(np.nanmean(e_base**2)), floor, s):
         return False
-    sq = (e_base**2 - e_oracle**2).mean(axis=1)
-    sq = sq[np.isfinite(sq)]
     block = max(int(round(s.block_s * rate_hz)), 1)
-    lo, _ = bootstrap_ci(sq, block, s.n_boot, 1 - 2 * s.alpha, np.random.default_rng(s.seed))
+    lo, _ = improvement_ci(e_base, e_oracle, block, s.n_boot, 1 - 2 * s.alpha, np.random.default_rng(s.seed))
     return bool(lo > 0)
 
 

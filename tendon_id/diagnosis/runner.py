@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.diagnosis.refit import Fit, refit
-from tendon_id.diagnosis.stats import bootstrap_ci
+from tendon_id.diagnosis.stats import bootstrap_ci, improvement_ci
 from tendon_id.progress import progress_bar
 
 
@@ -86,9 +86,7 @@ class Scorer:
 
     def improvement_ci(self, e_before: NDArray, e_after: NDArray, block: int, level: float, rng) -> tuple[float, float]:
         """Block-bootstrap interval of the drop in held-out mean squared error [N^2]."""
-        sq = e_before**2 - e_after**2
-        ok = np.isfinite(sq).all(axis=1)  # frames outside the warm-up
-        return bootstrap_ci(sq[ok].mean(axis=1), block, self.settings.n_boot, level, rng)
+        return improvement_ci(e_before, e_after, block, self.settings.n_boot, level, rng)
 
     def excess_ci(self, e: NDArray, floor: float, block: int, level: float, rng) -> tuple[float, float]:
         """Block-bootstrap interval of the mean squared error above the noise floor's [N^2]."""

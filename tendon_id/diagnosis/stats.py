@@ -40,6 +40,19 @@ def bootstrap_ci(x: NDArray, block: int, n_boot: int, level: float, rng: np.rand
     return float(lo), float(hi)
 
 
+def improvement_ci(
+    e_before: NDArray, e_after: NDArray, block: int, n_boot: int, level: float, rng: np.random.Generator
+) -> tuple[float, float]:
+    """Block-bootstrap interval of the drop in held-out mean squared error [N^2] from one model to another.
+
+    Frames where either residual is NaN (a model's warm-up) are left out; each frame's drop
+    is the mean over its tendons.
+    """
+    sq = e_before**2 - e_after**2
+    ok = np.isfinite(sq).all(axis=1)
+    return bootstrap_ci(sq[ok].mean(axis=1), block, n_boot, level, rng)
+
+
 def ljung_box_p(residual: NDArray, lags: int = 10) -> list[float]:
     """Ljung–Box p-value of each column of ``residual`` (statsmodels; Ljung & Box 1978).
 
