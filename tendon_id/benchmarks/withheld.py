@@ -47,6 +47,14 @@ STRIBECK_SPEED = 0.002
 #: and a default worn guide raised the base's mean squared error over a perfect model's
 #: 1.3-1.6-fold against 2.3-2.8-fold.
 PROTOCOLS = ("posterior-6", "planned-paths")
+#: Test frames per training frame.  The held-out error of one realisation is heavy-tailed (a
+#: model fed measured inputs ratchets at slips), and it is what every test of the diagnosis
+#: reads, while only the training length sets the cost of the refits.  In the default cases of
+#: worn guides, per-tendon wraps, lags and stiffness (seeds 0-4), a refit of the true structure
+#: lowered the held-out error by less than 0.06 N, or raised it, in 4 of 20 with test runs half
+#: as long as the training ones; with runs twice as long, by 0.09 N or more in all 20, and the
+#: true block ranked first in all 20.
+TEST_RATIO = 2
 
 
 @dataclass(frozen=True)
@@ -62,7 +70,7 @@ class Case:
         ``half``, ``default`` or ``double``.
     seed : int
     frames : int
-        Training frames per protocol (the test data has half as many).
+        Training frames per protocol (the test data has :data:`TEST_RATIO` times as many).
     """
 
     kind: str
@@ -149,4 +157,4 @@ def case_data(case: Case) -> tuple[list[Recording], list[Recording]]:
             recs = [_delayed(r, SENSOR_DELAY_S * MAGNITUDES[case.magnitude]) for r in recs]
         return recs
 
-    return make(1000 + case.seed, case.frames), make(2000 + case.seed, case.frames // 2)
+    return make(1000 + case.seed, case.frames), make(2000 + case.seed, TEST_RATIO * case.frames)

@@ -27,9 +27,12 @@ class DiagnosisSettings:
     min_excess : float
         No gap is reported when the base's held-out mean squared error exceeds the upper
         quantile (at ``1 - alpha``) of a perfect model's by less than this share of it [-]
-        (:func:`~tendon_id.diagnosis.stats.noise_floor`).  A practical margin: the simulated
-        sensors are an estimate (their clean signals are smoothed readings), and a gap of a
-        tenth of the floor's RMSE is not worth a new block.
+        (:func:`~tendon_id.diagnosis.stats.noise_floor`), unless a candidate lowers it
+        significantly by at least this share on the same frames
+        (:func:`~tendon_id.diagnosis.verdict.shows_gap`).  A practical margin: the simulated
+        sensors are an estimate (their clean signals are smoothed readings), a free parameter
+        absorbs some of what noisy inputs cost, and a gap of a tenth of the floor's RMSE is
+        not worth a new block.
     floor_draws : int
         Simulated measurement draws of the noise floor.
     explained_share : float

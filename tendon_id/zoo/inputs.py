@@ -64,7 +64,9 @@ class TransmissionInputs:
     reset : ndarray of bool, shape (T,)
         First frame of each trajectory.
     clock : ndarray, shape (T,)
-        Time since the start of the session [s] (trajectories back to back).
+        Time since the start of the session [s]: each recording is a session (its
+        trajectories back to back, as the simulator records them), so the clock restarts
+        at every recording's first frame.
     dt : float
         Sample period [s].
     geometry : RobotGeometry
@@ -131,11 +133,8 @@ class TransmissionInputs:
         if len(dts) > 1:
             raise ConfigError(f"recordings have different sample rates: {sorted(1 / d for d in dts)} Hz")
         dt = recs[0].dt
-        clocks, offset = [], 0.0
-        for r in recs:
-            n = r.n_frames
-            clocks.append(offset + np.arange(n) * dt)
-            offset += n * dt
+        # A load cell's drift runs from its tare, at the start of a recording, not from an earlier file's.
+        clocks = [np.arange(r.n_frames) * dt for r in recs]
         return cls(
             angles=np.concatenate([r.angles for r in recs]),
             actuator=np.concatenate([r.actuator for r in recs]),

@@ -42,6 +42,17 @@ def test_block_at_true_settings_is_the_simulator(effect):
     assert np.max(np.abs(plain - rec.terminal)) > 100 * tol  # and the effect is there to be modelled
 
 
+def test_sensor_drift_restarts_with_every_recording():
+    """Each recording is a session: read together, two recordings keep the simulator's drift of each."""
+    protocols = ("planned-paths", "posterior-6")
+    recs = [simulate(RECIPE, p, frames=300, effects="sensor_bias", seed=5).recording for p in protocols]
+    inputs = TransmissionInputs.from_recordings(recs)
+    assert inputs.clock[recs[0].n_frames] == 0.0
+    model = CapstanModel(blocks=oracle_blocks(RECIPE.effects.with_enabled(("sensor_bias",))))
+    pred = model.terminal_reading(inputs, *TRUE_LAW)
+    assert np.max(np.abs(pred - np.concatenate([r.terminal for r in recs]))) < 2e-4
+
+
 def test_hooks_of_one_stage_share_one_signature():
     for stage in STAGES:
         sigs = {

@@ -170,6 +170,13 @@ def test_verdict_rules_by_hand():
     wide = NoiseFloor(rmse=1.0, upper=1.5, source="by hand")
     assert decide(2.5, wide, (0.5, 2.0), [base], s).kind == "none"
     assert decide(3.0, wide, (1.0, 3.0), [base], s).kind == "unexplained"  # 3.0 > 1.25 * 1.5**2
+    # Within what the sensors give, a candidate that lowers the same frames' error by 25 % or more shows a gap.
+    paired = Rung(["base", "per_tendon_wrap"], np.sqrt(1.9), 0.3)
+    v = decide(2.5, wide, (0.5, 2.0), [base, paired], s)  # 2.5 >= 1.25 * 1.9
+    assert (v.kind, v.effects) == ("explained", ["per_tendon_wrap"])
+    assert decide(2.5, wide, (0.5, 2.0), [base, Rung(["base", "bending_stiffness"], np.sqrt(2.1), 0.2)], s).kind == (
+        "none"
+    )  # 2.5 < 1.25 * 2.1
     # A ladder that leaves only what the sensors give explains the gap, whatever share it closed.
     near = Rung(["base", "guide_wear"], 1.6, 0.4)
     v = decide(25.0, wide, (20.0, 30.0), [base, near], s)
