@@ -45,9 +45,10 @@ print(result.summary())
 # Where the gap lies
 # ------------------
 #
-# Red bars longer than grey ones mark where the error concentrates: here, in a stretch of the
-# planned paths (the session clock's third quarter holds 68 % of the squared error) and while
-# the joints move (70 % of it in 41 % of the frames), as a lag would.
+# Red bars longer than grey ones mark where the error concentrates: here, while the joints move
+# (68 % of the squared error in the 43 % of frames that are not at rest), as a lag would, and
+# when the distal guides 7-11 are bent (43-44 % of it in a quarter of the frames each, with a
+# bias of -1.4 to -1.7 N: the measured tension lags below what the base predicts).
 
 gap_map_figure(result)
 plt.show()
