@@ -17,11 +17,12 @@ def within_sensors(mse: float, floor: NoiseFloor, settings) -> bool:
     return mse <= floor.upper**2 * (1.0 + settings.min_excess)
 
 
-def shows_gap(mse0: float, floor: NoiseFloor, excess_ci: tuple[float, float], mse1: float | None, settings) -> bool:
+def shows_gap(mse0: float, floor: NoiseFloor, excess_significant: bool, mse1: float | None, settings) -> bool:
     """Whether the base's held-out error shows a gap, by the floor or by a better model on the same frames.
 
     By the floor: the base's mean squared error ``mse0`` [N^2] is beyond what the sensors alone
-    give (:func:`within_sensors`) and its excess over the expected floor is significant.  By a
+    give (:func:`within_sensors`) and its excess over the expected floor is significant
+    (``excess_significant``, from its bootstrap interval).  By a
     paired comparison: a candidate's significant improvement (the ladder's first rung, whose
     mean squared error is ``mse1``, None without one) leaves at most ``1 / (1 + min_excess)``
     of the base's.  The second test compares two models on the very same frames, so the
@@ -30,7 +31,7 @@ def shows_gap(mse0: float, floor: NoiseFloor, excess_ci: tuple[float, float], ms
     the errors-in-variables error too (on null cases, a bending-stiffness refit lowered the
     held-out mean squared error by up to 21 %).
     """
-    if not within_sensors(mse0, floor, settings) and excess_ci[0] > 0:
+    if excess_significant and not within_sensors(mse0, floor, settings):
         return True
     return mse1 is not None and mse0 >= (1.0 + settings.min_excess) * mse1
 
@@ -75,7 +76,7 @@ def decide(
         Effects whose fitted parameters reached a bound.
     """
     mse1 = ladder[1].heldout_rmse ** 2 if len(ladder) >= 2 else None
-    if not shows_gap(mse0, floor, excess_ci, mse1, settings):
+    if not shows_gap(mse0, floor, excess_ci[0] > 0, mse1, settings):
         return Verdict(
             "none",
             [],
