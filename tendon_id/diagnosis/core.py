@@ -216,7 +216,8 @@ def diagnose(
                 f"{c.effect}: {', '.join(c.at_bound)} reached the edge of its plausible range; the effect it stands "
                 "in for may be outside the library"
             )
-    verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained)
+    structural = {e for e, b in blocks.items() if not b.param_names}
+    verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained, structural)
     return DiagnosisResult(
         base=base.name,
         base_rmse=float(np.sqrt(mse0)),

@@ -177,6 +177,19 @@ def test_verdict_rules_by_hand():
     assert decide(2.5, wide, (0.5, 2.0), [base, Rung(["base", "bending_stiffness"], np.sqrt(2.1), 0.2)], s).kind == (
         "none"
     )  # 2.5 < 1.25 * 2.1
+    # A candidate without free parameters cannot absorb the inputs' noise: its significant gain needs no margin.
+    small = Rung(["base", "per_tendon_wrap"], np.sqrt(2.3), 0.1)
+    assert decide(2.5, wide, (0.5, 2.0), [base, small], s).kind == "none"  # 2.5 < 1.25 * 2.3
+    v = decide(2.5, wide, (0.5, 2.0), [base, small], s, structural={"per_tendon_wrap"})
+    assert (v.kind, v.effects) == ("explained", ["per_tendon_wrap"])
+    margin = DiagnosisSettings(min_excess_structural=0.1)
+    assert decide(2.5, wide, (0.5, 2.0), [base, small], margin, structural={"per_tendon_wrap"}).kind == "none"
+    # The ladder's end counts too: each rung is significant, and together they clear the margin.
+    wear = Rung(["base", "guide_wear"], np.sqrt(2.2), 0.2)
+    both = Rung(["base", "guide_wear", "bending_stiffness"], np.sqrt(1.9), 0.4)
+    assert decide(2.5, wide, (0.5, 2.0), [base, wear], s).kind == "none"  # 2.5 < 1.25 * 2.2
+    v = decide(2.5, wide, (0.5, 2.0), [base, wear, both], s)  # 2.5 >= 1.25 * 1.9
+    assert (v.kind, v.effects) == ("explained", ["guide_wear", "bending_stiffness"])
     # A ladder that leaves only what the sensors give explains the gap, whatever share it closed.
     near = Rung(["base", "guide_wear"], 1.6, 0.4)
     v = decide(25.0, wide, (20.0, 30.0), [base, near], s)
