@@ -107,8 +107,8 @@ def decide(
             [],
             0.0,
             f"no significant gap: the base's {np.sqrt(mse0):.2f} N is within what the sensors alone give "
-            f"(noise floor {floor.rmse:.2f} N, up to {floor.upper:.2f} N), and no candidate lowers its mean "
-            f"squared error enough ({settings.min_excess:.0%} or more, with free parameters)",
+            f"(noise floor {floor.rmse:.2f} N, up to {floor.upper:.2f} N), and no better model lowers its mean "
+            f"squared error on the same frames by {settings.min_excess:.0%} or more",
         )
     if len(ladder) >= 2 and ladder[1].effects[-1] in strained:
         e = ladder[1].effects[-1]
