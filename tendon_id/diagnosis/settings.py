@@ -30,10 +30,9 @@ class DiagnosisSettings:
         (:func:`~tendon_id.diagnosis.stats.noise_floor`), unless a candidate lowers it
         significantly by at least this share on the same frames
         (:func:`~tendon_id.diagnosis.verdict.shows_gap`: the ladder's first rung or its end).
-        A practical margin: the simulated
-        sensors are an estimate (their clean signals are smoothed readings), a free parameter
-        absorbs some of what noisy inputs cost, and a gap of a tenth of the floor's RMSE is
-        not worth a new block.
+        A practical margin: the simulated sensors are an estimate (their clean signals are
+        smoothed readings), a free parameter absorbs some of what noisy inputs cost, and a gap
+        of a tenth of the floor's RMSE is not worth a new block.
     min_excess_structural : float
         The paired test's margin for a candidate without free parameters (a contact gate,
         per-tendon wraps) [-]: it cannot absorb what noisy inputs cost, so by default any
