@@ -32,6 +32,8 @@ def _one_of(names) -> str:
     return ", ".join(names[:-1]) + f" or {names[-1]}" if len(names) > 1 else "".join(names)
 
 
+MAPPING_HELP = "A mapping file (TOML) of your own files' columns and units, or a bundled one's name."
+
 app = typer.Typer(
     name="tendon-id",
     help="Physics-informed identification of tendon transmissions in cable-driven snake robots.",
@@ -71,11 +73,10 @@ def simulate(
 def info(
     file: Path = typer.Argument(..., help="A recording (.parquet, or .csv with an optional .json sidecar)."),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
 ) -> None:
     """Summarise a recording: modules, frames, trajectories, ranges and which truth is present."""
-    from tendon_id.data import Recording
-
-    summary = Recording.read(file).summary()
+    summary = _read_all([file], mapping)[0].summary()
     if as_json:
         typer.echo(json.dumps(summary, indent=2, default=float))
         return
@@ -98,12 +99,13 @@ def _parse_sets(items: list[str] | None) -> dict:
     return out
 
 
-def _read_all(paths: list[Path]):
-    from tendon_id.data import Recording
+def _read_all(paths: list[Path], mapping: Optional[str] = None):
+    from tendon_id.data.mapping import load_mapping, read_files
+    from tendon_id.datasets import mapping_path
 
     if not paths:
         raise TendonIdError("--data: give at least one recording")
-    return [Recording.read(p) for p in paths]
+    return read_files(paths, load_mapping(mapping_path(mapping)) if mapping else None)
 
 
 def _write_json(path: Path, obj: dict) -> None:
@@ -118,12 +120,13 @@ def fit(
     data: list[Path] = typer.Option(None, "--data", help="Recording(s) to fit on; repeat for several."),
     set_: list[str] = typer.Option(None, "--set", help="Model setting key=value (JSON values); repeatable."),
     out: Path = typer.Option(..., "--out", help="Folder for the fitted model (model.json + arrays.npz)."),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
 ) -> None:
     """Fit a zoo model on terminal-only labels and save it."""
     from tendon_id import zoo
 
     m = zoo.make(model, **_parse_sets(set_))
-    recs = _read_all(data)
+    recs = _read_all(data, mapping)
     m.fit(recs)
     m.save(out)
     frames = sum(r.n_frames for r in recs)
@@ -135,17 +138,23 @@ def evaluate(
     model: Path = typer.Option(..., "--model", help="A folder written by 'tendon-id fit'."),
     data: Path = typer.Option(..., "--data", help="Recording to evaluate on."),
     as_json: bool = typer.Option(False, "--json", help="Print the metrics as JSON (DESIGN §10 shape)."),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
 ) -> None:
     """Metrics of a fitted model on a recording: terminal joint, and every joint where truth exists."""
     from tendon_id import zoo
-    from tendon_id.data import Recording
 
     m = zoo.load(model)
-    rec = Recording.read(data)
+    rec = _read_all([data], mapping)[0]
     score = m.score(rec)
     result = {"model": m.name, "frames": rec.n_frames, **score}
     if as_json:
         typer.echo(json.dumps(result, indent=2, default=float))
+        return
+    if "predicted" in score:  # a single passage
+        p = score["predicted"]
+        unit = "N m" if getattr(rec, "quantity", "") == "torque" else "N"
+        typer.echo(f"{m.name} on {data} ({rec.n_frames} frames), predicting the {score['side']} side")
+        typer.echo(f"RMSE {p['rmse']:.4g} {unit}   R2 {p['r2']:.3f}   max error {p['max_error']:.4g} {unit}")
         return
     t = score["terminal"]
     typer.echo(f"{m.name} on {data} ({rec.n_frames} frames)")

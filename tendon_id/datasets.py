@@ -51,6 +51,30 @@ def load_recipe(name_or_path: str | os.PathLike) -> Recipe:
     return Recipe.from_toml(candidate)
 
 
+def mapping_names() -> list[str]:
+    """Names of the bundled mapping files (``datasets/mappings/*.toml``)."""
+    return sorted(p.stem for p in (recipe_dir() / "mappings").glob("*.toml"))
+
+
+def mapping_path(name_or_path: str | os.PathLike) -> Path:
+    """A mapping file by path, or a bundled one by name (e.g. ``mis-tool-characterization``).
+
+    Raises
+    ------
+    ConfigError
+        If it is neither, naming the bundled ones.
+    """
+    p = Path(name_or_path)
+    if p.is_file():
+        return p
+    bundled = recipe_dir() / "mappings" / f"{name_or_path}.toml"
+    if bundled.is_file():
+        return bundled
+    raise ConfigError(
+        f"--mapping {str(name_or_path)!r}: no such file, nor a bundled mapping ({', '.join(mapping_names()) or 'none'})"
+    )
+
+
 def cache_dir() -> Path:
     """Where built datasets are cached (``$TENDON_ID_CACHE`` or ``~/.cache/tendon-id``)."""
     return Path(os.environ.get("TENDON_ID_CACHE") or Path.home() / ".cache" / "tendon-id")

@@ -30,6 +30,7 @@ __all__ = [
     "PARQUET_OPTIONS",
     "sidecar",
     "meta_json",
+    "first_line",
     "check_suffix",
     "read_frame",
     "read_parquet",
@@ -70,7 +71,8 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
 
 
-def _first_line(exc: BaseException) -> str:
+def first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (its type's name when it has none)."""
     text = str(exc).strip().splitlines()
     return text[0] if text else type(exc).__name__
 
@@ -148,14 +150,14 @@ def read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
     try:
         table = pq.read_table(path)
     except (pa.ArrowException, OSError) as exc:
-        raise RecordingError(f"not a readable Parquet file ({_first_line(exc)})", file=src) from exc
+        raise RecordingError(f"not a readable Parquet file ({first_line(exc)})", file=src) from exc
     raw = (table.schema.metadata or {}).get(META_KEY)
     meta = None
     if raw is not None:
         try:
             meta = json.loads(raw.decode("utf-8"))
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise RecordingError(f"unreadable tendon_id metadata ({_first_line(exc)})", file=src) from exc
+            raise RecordingError(f"unreadable tendon_id metadata ({first_line(exc)})", file=src) from exc
         if not isinstance(meta, dict):
             raise RecordingError("tendon_id metadata is not a JSON object", file=src)
     return table.to_pandas(), meta
@@ -172,14 +174,14 @@ def read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
     except pd.errors.EmptyDataError as exc:
         raise RecordingError("the file is empty", file=src) from exc
     except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError) as exc:
-        raise RecordingError(f"not a readable CSV file ({_first_line(exc)})", file=src) from exc
+        raise RecordingError(f"not a readable CSV file ({first_line(exc)})", file=src) from exc
     side = sidecar(path)
     meta = None
     if side.exists():
         try:
             meta = json.loads(side.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise RecordingError(f"unreadable metadata sidecar ({_first_line(exc)})", file=str(side)) from exc
+            raise RecordingError(f"unreadable metadata sidecar ({first_line(exc)})", file=str(side)) from exc
         if not isinstance(meta, dict):
             raise RecordingError("metadata sidecar is not a JSON object", file=str(side))
     return frame, meta
@@ -211,7 +213,7 @@ def write_frame(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> Pat
     try:
         meta_text = meta_json(meta, indent=2) + "\n"
     except (TypeError, ValueError) as exc:
-        raise RecordingError(f"metadata is not JSON serialisable ({_first_line(exc)})", file=str(path)) from exc
+        raise RecordingError(f"metadata is not JSON serialisable ({first_line(exc)})", file=str(path)) from exc
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         if suffix in SUFFIXES_PARQUET:
@@ -221,7 +223,7 @@ def write_frame(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> Pat
             atomic_write(sidecar(path), lambda tmp: Path(tmp).write_text(meta_text, encoding="utf-8"))
             atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, lineterminator="\n", encoding="utf-8"))
     except OSError as exc:
-        raise RecordingError(f"cannot write ({_first_line(exc)})", file=str(path)) from exc
+        raise RecordingError(f"cannot write ({first_line(exc)})", file=str(path)) from exc
     return path
 
 
@@ -233,7 +235,7 @@ def write_parquet(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> N
     try:
         table = pa.Table.from_pandas(frame, preserve_index=False)
     except (pa.ArrowException, TypeError, ValueError) as exc:
-        raise RecordingError(f"cannot convert to Parquet ({_first_line(exc)})", file=str(path)) from exc
+        raise RecordingError(f"cannot convert to Parquet ({first_line(exc)})", file=str(path)) from exc
     if "trajectory" in table.column_names:
         # One string type whatever pandas' string storage is (object, python or pyarrow).
         idx = table.column_names.index("trajectory")

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 
 from tendon_id.errors import ConfigError
-from tendon_id.zoo.base import FORMAT_VERSION, TransmissionModel
+from tendon_id.zoo.estimator import FORMAT_VERSION, Estimator
 from tendon_id.zoo.registry import model_class
 
 
-def load_model(path: str | os.PathLike) -> TransmissionModel:
+def load_model(path: str | os.PathLike) -> Estimator:
     """Load a model saved by :meth:`TransmissionModel.save`.
 
     Only the saved model's own module is imported (a capstan model loads without torch).

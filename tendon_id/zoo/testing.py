@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from tendon_id.data import Recording
+from tendon_id.data.passage import PassageRecording
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.base import NotFittedError, TransmissionModel
 from tendon_id.zoo.persistence import load_model
@@ -52,8 +53,19 @@ def check_model(model: TransmissionModel, train: Recording, test: Recording, *, 
         * scrambled intermediate truth in ``train`` changes no prediction;
         * save -> load -> predict is bit-identical, and save -> load -> save gives the same files
           (the model's name must be registered, see :func:`tendon_id.zoo.register`).
+
+        For a single-passage model (``train`` and ``test`` are
+        :class:`~tendon_id.data.passage.PassageRecording`), ``predict`` has shape (T,), there is
+        no chain or hidden truth, and a passage of the other quantity must raise ConfigError.
     """
     fitted = _check_fit_and_unfitted_errors(model, train, test)
+    if isinstance(test, PassageRecording):  # a single passage: no chain, no hidden truth
+        pred = fitted.predict(test)
+        assert pred.shape == (test.n_frames,), f"{model.name}: predict shape {pred.shape}, expected {(test.n_frames,)}"
+        _check_no_side_effects(fitted, test, pred)
+        _check_round_trip(fitted, test, pred)
+        _check_other_quantity(fitted, test)
+        return
     pred = _check_shapes(fitted, test)
     _check_no_side_effects(fitted, test, pred)
     _check_scrambled_truth_changes_nothing(model, train, test, pred, seed)
@@ -69,11 +81,10 @@ def clone(model: TransmissionModel) -> TransmissionModel:
 def _check_fit_and_unfitted_errors(model: TransmissionModel, train: Recording, test: Recording) -> TransmissionModel:
     fresh = clone(model)
     with tempfile.TemporaryDirectory() as tmp:  # a model that wrongly saves unfitted writes only here
-        for what, call in (
-            ("predict", lambda: fresh.predict(test)),
-            ("predict_chain", lambda: fresh.predict_chain(test)),
-            ("save", lambda: fresh.save(Path(tmp) / "unfitted")),
-        ):
+        calls = [("predict", lambda: fresh.predict(test)), ("save", lambda: fresh.save(Path(tmp) / "unfitted"))]
+        if hasattr(fresh, "predict_chain"):
+            calls.append(("predict_chain", lambda: fresh.predict_chain(test)))
+        for what, call in calls:
             try:
                 call()
             except NotFittedError:
@@ -106,7 +117,8 @@ def _check_no_side_effects(model: TransmissionModel, test: Recording, pred: np.n
     with tempfile.TemporaryDirectory() as tmp:
         before = _saved(model, Path(tmp) / "before")
         again = model.predict(test)
-        model.predict_chain(test)
+        if hasattr(model, "predict_chain"):
+            model.predict_chain(test)
         after = _saved(model, Path(tmp) / "after")
     assert before == after, f"{model.name}: predict changed the model's fitted state"
     assert test.frame.equals(frame), f"{model.name}: predict changed its input recording"
@@ -142,6 +154,18 @@ def _check_other_robot_size(model: TransmissionModel, test: Recording) -> None:
     raise AssertionError(
         f"{model.name}: predicting a {smaller.n_modules}-module robot with a model fitted on "
         f"{model.n_modules_} modules must raise ConfigError"
+    )
+
+
+def _check_other_quantity(model, test) -> None:
+    other = "tension" if test.quantity == "torque" else "torque"
+    frame = test.frame.assign(input=test.frame["input"].abs() + 1.0, output=test.frame["output"].abs() + 1.0)
+    try:
+        model.predict(PassageRecording(frame, {**test.meta, "quantity": other}))
+    except ConfigError:
+        return
+    raise AssertionError(
+        f"{model.name}: predicting a {other} passage with a {test.quantity} model must raise ConfigError"
     )
 
 

@@ -36,7 +36,7 @@ def data():
     return train, test
 
 
-@pytest.mark.parametrize("name", zoo.names())
+@pytest.mark.parametrize("name", [n for n in zoo.names() if not n.startswith("passage-")])  # passages: test_passage
 def test_every_registered_model_keeps_the_contract(data, name):
     testing.check_model(zoo.make(name, **fast_settings(name)), *data)
 

@@ -1,0 +1,330 @@
+"""A user's own files, read through a mapping file (TOML) that names their columns and units (DESIGN §14).
+
+A complete mapping, for a bench that logs one tendon's two load cells in mN and a motor
+angle in degrees::
+
+    kind = "passage"          # "passage" (one passage, a bench) or "snake" (our recording schema)
+    quantity = "tension"      # passage only: "tension" [N] (one tendon) or "torque" [N m] (a pair)
+
+    [file]
+    comment = "#"             # lines starting with it are skipped (default: none)
+    header = true             # the first row names the columns (default); false: number them from 1
+    delimiter = ","
+    trajectory = "file"       # one trajectory per file (default), or the column that holds its id
+
+    [columns]                 # our name = its column (name or 1-based number), unit, scale, sign
+    t = { column = "time_ms", unit = "ms" }
+    input = { column = "F_motor", unit = "mN" }
+    output = { column = "F_tip", unit = "mN", sign = -1 }
+    position = { column = "motor", unit = "deg" }
+
+    [geometry]
+    wrap_angle = "infer"      # the passage's wrap: "infer", a number [rad], or "120 deg"
+
+A value in SI is ``sign * scale * raw`` converted from ``unit`` (``scale`` is 1 unless the
+column holds counts: ``unit = "N*m", scale = 3.9811e-5``, or ``unit = "turn / 8192"``).
+The names ``[columns]`` may hold are the data kind's: for a passage
+:data:`~tendon_id.data.passage.PASSAGE_COLUMNS` and ``position``, ``position_out``, ``wrap``;
+for a snake the columns of :func:`~tendon_id.data.column_names`, with ``[meta]`` for its
+metadata (``n_modules``, ``robot``).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tendon_id.data import validation as rules
+from tendon_id.data.io import first_line
+from tendon_id.data.passage import OPTIONAL_COLUMNS, PASSAGE_COLUMNS, QUANTITIES, PassageRecording
+from tendon_id.data.recording import Recording
+from tendon_id.data.schema import TENSION_RE, THETA_RE
+from tendon_id.data.units import si_factor
+from tendon_id.errors import ConfigError, RecordingError
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+__all__ = ["ColumnMap", "DataMapping", "load_mapping", "read_mapped", "read_files", "trajectory_names"]
+
+KINDS = ("passage", "snake")
+_TOP = {"kind", "quantity", "file", "columns", "geometry", "meta"}
+_FILE = {"comment", "header", "delimiter", "trajectory"}
+_COLUMN = {"column", "unit", "scale", "sign"}
+
+
+@dataclass(frozen=True)
+class ColumnMap:
+    """One signal: where it is, and the factor that brings it to SI.
+
+    Attributes
+    ----------
+    name : str
+        Our column name (``input``, ``t``, ``theta_1_x``, ...).
+    column : str or int
+        The user's column: a name, or a 1-based number.
+    unit : str
+        The unit of ``scale * raw``.
+    factor : float
+        ``value_SI = factor * raw`` (sign, scale and unit together).
+    kind : str
+        ``time``, ``angle``, ``tension`` or ``torque``.
+    """
+
+    name: str
+    column: str | int
+    unit: str
+    factor: float
+    kind: str
+
+
+@dataclass(frozen=True)
+class DataMapping:
+    """A parsed mapping file (see the module docstring)."""
+
+    source: str
+    kind: str
+    quantity: str | None
+    columns: tuple[ColumnMap, ...]
+    comment: str | None = None
+    header: bool = True
+    delimiter: str = ","
+    trajectory: str | int = "file"
+    wrap_angle: float | None = None
+    meta: dict = field(default_factory=dict)
+
+
+def _signal_kind(kind: str, quantity: str | None, name: str) -> str | None:
+    """The kind of signal our column ``name`` holds, or None when the data kind has no such column."""
+    if name == "t":
+        return "time"
+    if kind == "passage":
+        if name in ("input", "output"):
+            return quantity
+        return "angle" if name in OPTIONAL_COLUMNS else None
+    if THETA_RE.match(name):
+        return "angle"
+    return "tension" if TENSION_RE.match(name) else None
+
+
+def _table(doc: dict, key: str, allowed: set, where: str) -> dict:
+    t = doc.get(key, {})
+    if not isinstance(t, dict):
+        raise ConfigError(f"{where}: [{key}] must be a table")
+    unknown = sorted(set(t) - allowed) if allowed else []
+    if unknown:
+        raise ConfigError(f"{where}: unknown key {key}.{unknown[0]}; known: {', '.join(sorted(allowed))}")
+    return t
+
+
+def load_mapping(path: str | os.PathLike) -> DataMapping:
+    """Read and check a mapping file.
+
+    Raises
+    ------
+    ConfigError
+        In one line naming the file and the key: unreadable TOML, an unknown key, kind or
+        quantity, a column named twice or missing, an unknown unit or one of the wrong dimension.
+    """
+    src = str(path)
+    try:
+        doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"{src}: no such mapping file") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"{src}: not a readable TOML mapping ({first_line(exc)})") from None
+    unknown = sorted(set(doc) - _TOP)
+    if unknown:
+        raise ConfigError(f"{src}: unknown key {unknown[0]!r}; known: {', '.join(sorted(_TOP))}")
+    kind = doc.get("kind", "passage")
+    if kind not in KINDS:
+        raise ConfigError(f"{src}: kind = {kind!r}; expected {' or '.join(map(repr, KINDS))}")
+    quantity = doc.get("quantity", "tension") if kind == "passage" else None
+    if kind == "passage" and quantity not in QUANTITIES:
+        raise ConfigError(f"{src}: quantity = {quantity!r}; expected {' or '.join(map(repr, QUANTITIES))}")
+    f = _table(doc, "file", _FILE, src)
+    cols = _table(doc, "columns", set(), src)
+    columns = []
+    for name, spec in cols.items():
+        where = f"{src}: columns.{name}"
+        sk = _signal_kind(kind, quantity, name)
+        if sk is None:
+            raise ConfigError(f"{where}: a {kind} has no column {name!r}")
+        if isinstance(spec, (str, int)) and not isinstance(spec, bool):
+            spec = {"column": spec}
+        if not isinstance(spec, dict):
+            raise ConfigError(f"{where}: expected a column name or {{ column = ..., unit = ... }}")
+        bad = sorted(set(spec) - _COLUMN)
+        if bad:
+            raise ConfigError(f"{where}: unknown key {bad[0]!r}; known: {', '.join(sorted(_COLUMN))}")
+        if "column" not in spec:
+            raise ConfigError(f"{where}: no 'column' (the name or 1-based number of the file's column)")
+        column = spec["column"]
+        if isinstance(column, bool) or not isinstance(column, (str, int)) or (isinstance(column, int) and column < 1):
+            raise ConfigError(f"{where}: column must be a name or a number from 1, got {column!r}")
+        unit = spec.get("unit", _default_unit(sk))
+        scale, sign = spec.get("scale", 1.0), spec.get("sign", 1)
+        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not np.isfinite(scale) or scale == 0:
+            raise ConfigError(f"{where}: scale must be a finite, non-zero number, got {scale!r}")
+        if sign not in (1, -1) or isinstance(sign, bool):
+            raise ConfigError(f"{where}: sign must be 1 or -1, got {sign!r}")
+        factor = sign * float(scale) * si_factor(unit, sk, where=where)
+        columns.append(ColumnMap(name, column, str(unit), factor, sk))
+    names = {c.name for c in columns}
+    required = PASSAGE_COLUMNS[1:] if kind == "passage" else ("t",)
+    missing = [n for n in required if n not in names]
+    if missing:
+        raise ConfigError(f"{src}: [columns] does not name {', '.join(missing)}")
+    geometry = _table(doc, "geometry", {"wrap_angle"}, src)
+    wrap = geometry.get("wrap_angle", "infer")
+    if wrap == "infer":
+        wrap = None
+    elif isinstance(wrap, (int, float)) and not isinstance(wrap, bool):
+        wrap = float(wrap)
+    else:
+        wrap = si_factor(str(wrap), "angle", where=f"{src}: geometry.wrap_angle")
+    if wrap is not None and not wrap > 0:
+        raise ConfigError(f"{src}: geometry.wrap_angle must be positive or 'infer', got {wrap!r}")
+    traj = f.get("trajectory", "file")
+    return DataMapping(
+        source=src,
+        kind=kind,
+        quantity=quantity,
+        columns=tuple(columns),
+        comment=f.get("comment"),
+        header=bool(f.get("header", True)),
+        delimiter=str(f.get("delimiter", ",")),
+        trajectory=traj,
+        wrap_angle=wrap,
+        meta=dict(_table(doc, "meta", set(), src)),
+    )
+
+
+def _default_unit(kind: str) -> str:
+    return {"time": "s", "angle": "rad", "tension": "N", "torque": "N*m"}[kind]
+
+
+def _read_raw(path: Path, m: DataMapping) -> pd.DataFrame:
+    src = str(path)
+    if not path.is_file():
+        raise RecordingError("no such file", file=src)
+    try:
+        if path.suffix.lower() in (".parquet", ".pq"):
+            frame = pd.read_parquet(path)
+        else:
+            frame = pd.read_csv(
+                path,
+                comment=m.comment,
+                header=0 if m.header else None,
+                sep=m.delimiter,
+                skipinitialspace=True,
+                engine="c",
+            )
+    except pd.errors.EmptyDataError:
+        raise RecordingError("the file has no data rows", file=src) from None
+    except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError, ImportError) as exc:
+        raise RecordingError(f"not readable with the mapping {m.source} ({first_line(exc)})", file=src) from None
+    if not m.header and path.suffix.lower() not in (".parquet", ".pq"):
+        frame.columns = list(range(1, frame.shape[1] + 1))
+    return frame
+
+
+def _locate(frame: pd.DataFrame, column: str | int, name: str, m: DataMapping, src: str):
+    """The file's column a mapping entry names: by name, else by 1-based number."""
+    if column in frame.columns:
+        return column
+    if isinstance(column, int) and column <= frame.shape[1]:
+        return frame.columns[column - 1]
+    have = ", ".join(map(str, frame.columns[:12])) + (" ..." if frame.shape[1] > 12 else "")
+    raise RecordingError(
+        f"no column {column!r}, which {m.source} maps to {name!r}; the file's columns: {have}", file=src
+    )
+
+
+def read_mapped(path: str | os.PathLike, mapping: DataMapping, *, trajectory: str | None = None):
+    """One file read through ``mapping``, in SI units.
+
+    Parameters
+    ----------
+    path : path-like
+        CSV (any delimiter, comment lines) or Parquet.
+    mapping : DataMapping
+    trajectory : str, optional
+        The trajectory id when the mapping says one per file (default: the file's stem).
+
+    Returns
+    -------
+    PassageRecording or Recording
+        By the mapping's kind; metadata records the file and the mapping.
+
+    Raises
+    ------
+    RecordingError
+        Naming the file, the user's column and the 0-based data row: a missing column, a value
+        that is not a number, and (after sign and scale) a tension that is not positive.
+    """
+    path = Path(path)
+    src = str(path)
+    raw = _read_raw(path, mapping)
+    out: dict[str, Any] = {}
+    for c in mapping.columns:
+        col = _locate(raw, c.column, c.name, mapping, src)
+        label = f"{col} ({c.name})"
+        rules.check_numeric(raw.rename(columns={col: label}), [label], source=src)
+        values = c.factor * raw[col].to_numpy(dtype=np.float64, na_value=np.nan)
+        rules.check_finite({label: values}, source=src)
+        if c.kind == "tension":
+            bad = np.flatnonzero(values <= 0)
+            if bad.size:
+                r = int(bad[0])
+                raise RecordingError(
+                    f"tension {values[r]:g} N after the mapping's sign and scale (factor {c.factor:g} to N) is not "
+                    f"positive; check sign and scale of columns.{c.name} in {mapping.source}",
+                    file=src,
+                    column=str(col),
+                    row=r,
+                )
+        out[c.name] = values
+    if mapping.trajectory == "file":
+        out["trajectory"] = np.full(len(raw), trajectory or path.stem, dtype=object)
+    else:
+        col = _locate(raw, mapping.trajectory, "trajectory", mapping, src)
+        out["trajectory"] = raw[col].astype(str).to_numpy()
+    frame = pd.DataFrame(out)
+    meta = {**mapping.meta, "source_files": [path.name], "mapping": Path(mapping.source).name}
+    if mapping.kind == "passage":
+        meta.update(kind="passage", quantity=mapping.quantity, wrap_angle=mapping.wrap_angle)
+        return PassageRecording(frame, meta, source=src)
+    return Recording(frame, meta, source=src)
+
+
+def trajectory_names(paths: list[Path]) -> list[str]:
+    """One trajectory id per file: its stem, or ``folder/stem`` where stems repeat."""
+    stems = [p.stem for p in paths]
+    if len(set(stems)) == len(stems):
+        return stems
+    return [re.sub(r"[\\/]+", "/", f"{p.parent.name}/{p.stem}") for p in paths]
+
+
+def read_files(paths, mapping: DataMapping | None = None) -> list:
+    """Recordings from files: our own format, or a user's through ``mapping`` (one trajectory per file).
+
+    Raises
+    ------
+    RecordingError
+        Naming the file (and column and row) of the first problem; nothing is read past it.
+    """
+    paths = [Path(p) for p in paths]
+    if mapping is None:
+        return [Recording.read(p) for p in paths]
+    if mapping.trajectory == "file":
+        return [read_mapped(p, mapping, trajectory=n) for p, n in zip(paths, trajectory_names(paths))]
+    return [read_mapped(p, mapping) for p in paths]

@@ -1,0 +1,124 @@
+"""The estimator contract of every model (scikit-learn conventions), whatever data it reads.
+
+* ``__init__`` only stores settings; ``get_params``/``set_params`` read them back.
+* ``fit(data)`` returns ``self``; fitted state ends in ``_``; ``predict`` has no side effects.
+* ``save(dir)``: ``model.json`` plus ``arrays.npz`` (never pickle); :func:`tendon_id.zoo.load_model`
+  reads it back.
+
+:class:`~tendon_id.zoo.base.TransmissionModel` (a snake's tendons) and
+:class:`~tendon_id.zoo.passage.PassageModel` (one passage on a bench) derive from it.
+"""
+
+from __future__ import annotations
+
+import abc
+import inspect
+import json
+import os
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from tendon_id.atomic import atomic_write, write_text_atomic
+from tendon_id.errors import ConfigError, TendonIdError
+
+FORMAT_VERSION = 1
+
+
+class NotFittedError(TendonIdError, RuntimeError):
+    """A model was used before ``fit`` (or ``load``)."""
+
+
+class Estimator(abc.ABC):
+    """Settings, fitted-state checks and persistence shared by every model."""
+
+    #: Registry name, e.g. ``"capstan-nonsmooth"``.
+    name: ClassVar[str] = "base"
+
+    # ---- parameters -------------------------------------------------------------
+    @classmethod
+    def param_names(cls) -> list[str]:
+        """Names of the settings ``__init__`` takes (scikit-learn's ``_get_param_names``)."""
+        sig = inspect.signature(cls.__init__)
+        return [
+            p for p in sig.parameters if p != "self" and sig.parameters[p].kind is not inspect.Parameter.VAR_KEYWORD
+        ]
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """The settings given to ``__init__``."""
+        return {p: getattr(self, p) for p in self.param_names()}
+
+    def set_params(self, **params: Any) -> Estimator:
+        """Change settings; unknown names are an error. Returns ``self``."""
+        known = set(self.param_names())
+        for k, v in params.items():
+            if k not in known:
+                raise ConfigError(f"{self.name} has no setting {k!r}; settings: {', '.join(sorted(known))}")
+            setattr(self, k, v)
+        return self
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"{type(self).__name__}({args})"
+
+    @property
+    @abc.abstractmethod
+    def is_fitted(self) -> bool:
+        """Whether ``fit`` (or ``load``) has set the fitted state."""
+
+    def check_fitted(self) -> None:
+        """Raise :class:`NotFittedError` unless the model is fitted (or loaded)."""
+        if not self.is_fitted:
+            raise NotFittedError(f"this {self.name} model is not fitted yet: call fit() or load() first")
+
+    # ---- persistence -------------------------------------------------------------
+    @abc.abstractmethod
+    def _state(self) -> tuple[dict, dict[str, np.ndarray]]:
+        """Fitted state as (JSON-able dict, arrays)."""
+
+    @abc.abstractmethod
+    def _restore(self, state: dict, arrays: dict[str, np.ndarray]) -> None:
+        """Set the fitted state from :meth:`_state`'s output."""
+
+    def _json_params(self) -> dict:
+        return {k: _jsonable(v) for k, v in self.get_params().items()}
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write ``path/model.json`` and ``path/arrays.npz`` (atomically each). Returns the folder."""
+        self.check_fitted()
+        folder = Path(path)
+        folder.mkdir(parents=True, exist_ok=True)
+        state, arrays = self._state()
+        doc = {"format": FORMAT_VERSION, "model": self.name, "params": self._json_params(), "state": state}
+        atomic_write(folder / "arrays.npz", lambda tmp: _savez(tmp, arrays))
+        write_text_atomic(folder / "model.json", json.dumps(doc, indent=2, sort_keys=True) + "\n")
+        return folder
+
+    @classmethod
+    def _from_params(cls, params: dict) -> Estimator:
+        return cls(**params)
+
+    @classmethod
+    def from_saved(cls, params: dict, state: dict, arrays: dict[str, np.ndarray]) -> Estimator:
+        """A fitted model from what :meth:`save` wrote: its settings, JSON state and arrays."""
+        model = cls._from_params(params)
+        model._restore(state, arrays)
+        return model
+
+
+def _savez(tmp: str, arrays: dict[str, np.ndarray]) -> None:
+    with open(tmp, "wb") as fh:
+        np.savez(fh, **{k: np.asarray(v) for k, v in arrays.items()})
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if hasattr(v, "to_dict"):
+        return v.to_dict()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v

@@ -1,0 +1,22 @@
+"""Single-passage models (a bench): ``passage-capstan`` and its effect blocks (DESIGN §14).
+
+>>> from tendon_id import zoo
+>>> model = zoo.make("passage-capstan", blocks=["stick_slip"])   # doctest: +SKIP
+>>> model.fit(bench_train).predict(bench_test).shape              # doctest: +SKIP
+(T,)
+"""
+
+from tendon_id.zoo.passage.blocks import PASSAGE_BLOCKS, PassageBlock
+from tendon_id.zoo.passage.inputs import PassageInputs, as_passages
+from tendon_id.zoo.passage.model import DIRECTIONS, LAW_PARAMS, PassageCapstan, PassageModel
+
+__all__ = [
+    "DIRECTIONS",
+    "LAW_PARAMS",
+    "PASSAGE_BLOCKS",
+    "PassageBlock",
+    "PassageCapstan",
+    "PassageInputs",
+    "PassageModel",
+    "as_passages",
+]

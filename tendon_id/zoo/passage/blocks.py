@@ -1,0 +1,225 @@
+"""The passage's effect blocks: what the capstan passage leaves out, one block per effect (DESIGN §14).
+
+A passage model predicts one side from the other through two slip edges, the forward-slip and
+the reverse-slip value of the predicted side (:mod:`friction_models.passage`). Blocks act at one
+of three stages:
+
+=========  ===============================================  =======================================
+stage      hook                                              blocks
+=========  ===============================================  =======================================
+``load``   ``load(inputs, values) -> (T,)``: a torque or     ``position_torque``, ``velocity_friction``,
+           tension added on the output side [N m or N]       ``load_coulomb``
+``state``  where the predicted side sits between its edges   ``stick_slip`` (held through reversals)
+``edge``   how it moves from one edge to the other           ``smooth_edge`` (Dahl lag in travel)
+=========  ===============================================  =======================================
+
+Without a ``state`` block the predicted side is on the edge of the current direction of motion
+(it switches the moment the motion reverses); without an ``edge`` block the switch is sharp.
+Effects keep the snake's names where the physics is the same (``stick_slip``,
+``velocity_friction``). Each block declares its parameters with bounds, the neutral value that
+switches it off, and a probe (a typical magnitude) for the diagnosis's signatures.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+PASSAGE_STAGES = ("load", "state", "edge")
+#: Every passage block class by effect name.
+PASSAGE_BLOCKS: dict[str, type[PassageBlock]] = {}
+
+
+@dataclass(frozen=True)
+class PassageBlock:
+    """Base of the passage blocks.
+
+    Class attributes: ``effect`` (its name), ``stage``, ``param_names``, ``units`` (per
+    parameter, with ``Q`` for the passage's quantity: N or N m), ``regressor`` (what the effect
+    leaves in a residual, in words), ``needs`` (optional signals it reads) and ``requires`` (blocks
+    it refines).
+    """
+
+    effect: ClassVar[str] = ""
+    stage: ClassVar[str] = "load"
+    param_names: ClassVar[tuple[str, ...]] = ()
+    units: ClassVar[dict[str, str]] = {}
+    regressor: ClassVar[str] = ""
+    needs: ClassVar[tuple[str, ...]] = ()
+    requires: ClassVar[tuple[str, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.effect:
+            assert cls.stage in PASSAGE_STAGES, cls.stage
+            PASSAGE_BLOCKS[cls.effect] = cls
+
+    @property
+    def name(self) -> str:
+        return self.effect
+
+    def neutral(self) -> dict[str, float]:
+        """Parameter values that switch the effect off."""
+        return {p: 0.0 for p in self.param_names}
+
+    def bounds(self, scale: dict) -> dict[str, tuple[float, float]]:
+        """``(lower, upper)`` per parameter, from the data's scales (``signal`` [Q], ``travel``, ``speed``)."""
+        return {}
+
+    def probe(self, scale: dict) -> dict[str, float]:
+        """A typical magnitude per parameter (the diagnosis's signature step)."""
+        return {}
+
+    def check(self, inputs) -> None:
+        """Raise ConfigError where the data lacks a signal the block reads."""
+        from tendon_id.errors import ConfigError
+
+        for need in self.needs:
+            if getattr(inputs, need) is None:
+                raise ConfigError(f"the {self.effect} block needs the {need.replace('_', '-')} column in the data")
+
+    def load(self, inputs, values: dict) -> NDArray:  # pragma: no cover - the load blocks override it
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class StickSlip(PassageBlock):
+    """Stick/slip: the predicted side holds through a reversal until the other side crosses the band.
+
+    The play operator on the two slip edges (Krasnosel'skii & Pokrovskii 1989), the paper's
+    nonsmooth capstan in one passage: while the driving side's signal stays between the edges,
+    the cable sticks and the predicted side keeps its value. The band is the capstan's own, so
+    it grows with load where one cable of a pair goes slack or the pair shares the load. No
+    free parameter.
+    """
+
+    effect: ClassVar[str] = "stick_slip"
+    stage: ClassVar[str] = "state"
+    regressor: ClassVar[str] = "a residual that holds after each reversal (hysteresis)"
+
+
+@dataclass(frozen=True)
+class SmoothEdge(PassageBlock):
+    """A smooth edge of the stick/slip band against motion: a Dahl lag in the input's travel.
+
+    The Dahl model (Dahl 1976, :func:`friction_models.dahl.travel_lag`): the predicted side
+    approaches the stick/slip state's value exponentially in the input's travel, with the
+    characteristic travel ``length`` [rad of input position, or Q without one], as a tendon's
+    compliance spreads the onset of slip along its wrap (pre-sliding). It holds while the input
+    stands still. It refines the band of ``stick_slip`` and needs it.
+    """
+
+    effect: ClassVar[str] = "smooth_edge"
+    stage: ClassVar[str] = "edge"
+    param_names: ClassVar[tuple[str, ...]] = ("length",)
+    units: ClassVar[dict[str, str]] = {"length": "rad"}
+    regressor: ClassVar[str] = "a residual of opposite signs just before and after each reversal"
+    requires: ClassVar[tuple[str, ...]] = ("stick_slip",)
+
+    def bounds(self, scale):
+        return {"length": (0.0, 0.5 * scale["travel"])}
+
+    def probe(self, scale):
+        return {"length": 0.02 * scale["travel"]}
+
+
+@dataclass(frozen=True)
+class PositionTorque(PassageBlock):
+    """A torque (or tension) that depends on position: ``k1 x + k2 x^2`` on the output side.
+
+    ``x`` is the output position where the data has it, else the input position [rad]; springs,
+    wiring and a wrap that changes with the angle act so. ``k1`` [Q/rad], ``k2`` [Q/rad^2].
+    """
+
+    effect: ClassVar[str] = "position_torque"
+    param_names: ClassVar[tuple[str, ...]] = ("k1", "k2")
+    units: ClassVar[dict[str, str]] = {"k1": "Q/rad", "k2": "Q/rad^2"}
+    regressor: ClassVar[str] = "the position (and its square)"
+    needs: ClassVar[tuple[str, ...]] = ("position",)
+
+    @staticmethod
+    def angle(inputs) -> NDArray:
+        return inputs.position_out if inputs.position_out is not None else inputs.position
+
+    def bounds(self, scale):
+        b = 10.0 * scale["signal"] / max(scale["angle"], 1e-9)
+        return {"k1": (-b, b), "k2": (-b / max(scale["angle"], 1e-9), b / max(scale["angle"], 1e-9))}
+
+    def probe(self, scale):
+        return {
+            "k1": 0.1 * scale["signal"] / max(scale["angle"], 1e-9),
+            "k2": 0.1 * scale["signal"] / scale["angle"] ** 2,
+        }
+
+    def load(self, inputs, values):
+        x = self.angle(inputs)
+        return values["k1"] * x + values["k2"] * x**2
+
+
+@dataclass(frozen=True)
+class VelocityFriction(PassageBlock):
+    """Viscous friction: ``-c v`` on the output side, ``v`` the input speed [rad/s]; ``c`` [Q s/rad].
+
+    The same effect as the snake's ``velocity_friction``: a friction that grows with speed.
+    """
+
+    effect: ClassVar[str] = "velocity_friction"
+    param_names: ClassVar[tuple[str, ...]] = ("c",)
+    units: ClassVar[dict[str, str]] = {"c": "Q s/rad"}
+    regressor: ClassVar[str] = "the input speed"
+
+    def bounds(self, scale):
+        b = 10.0 * scale["signal"] / max(scale["speed"], 1e-9)
+        return {"c": (-b, b)}
+
+    def probe(self, scale):
+        return {"c": 0.1 * scale["signal"] / max(scale["speed"], 1e-9)}
+
+    def load(self, inputs, values):
+        return -values["c"] * inputs.speed()
+
+
+@dataclass(frozen=True)
+class LoadCoulomb(PassageBlock):
+    """Coulomb friction on the load side: ``-f d`` on the output, ``d`` the direction of motion; ``f`` [Q].
+
+    It flips with the motion, outside the capstan: it does not scale with the cable tensions and
+    does not hold through a reversal.
+    """
+
+    effect: ClassVar[str] = "load_coulomb"
+    param_names: ClassVar[tuple[str, ...]] = ("f",)
+    units: ClassVar[dict[str, str]] = {"f": "Q"}
+    regressor: ClassVar[str] = "the direction of motion"
+
+    def bounds(self, scale):
+        return {"f": (-scale["signal"], scale["signal"])}
+
+    def probe(self, scale):
+        return {"f": 0.05 * scale["signal"]}
+
+    def load(self, inputs, values):
+        return -values["f"] * inputs.direction(scale_band(inputs))
+
+
+def scale_band(inputs) -> float:
+    """The deadband of the direction of motion: twice the median non-zero step of the travel."""
+
+    def compute():
+        step = np.abs(np.diff(inputs.travel()))
+        step = step[step > 0]
+        return 2.0 * float(np.median(step)) if step.size else 1e-12
+
+    return inputs.memo("band", compute)
+
+
+def make_block(effect: str) -> PassageBlock:
+    """The block of ``effect`` (ConfigError naming the known ones otherwise)."""
+    from tendon_id.errors import ConfigError
+
+    if effect not in PASSAGE_BLOCKS:
+        raise ConfigError(f"unknown passage effect {effect!r}; known: {', '.join(PASSAGE_BLOCKS)}")
+    return PASSAGE_BLOCKS[effect]()

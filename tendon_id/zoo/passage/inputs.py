@@ -1,0 +1,163 @@
+"""What a passage model reads from single-passage recordings, as arrays over all frames."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from friction_models import play_operator
+from tendon_id.data.passage import PassageRecording
+from tendon_id.errors import ConfigError
+
+#: Window of the backward difference that gives the input speed [s] (an encoder count per
+#: frame is too coarse at 1 kHz; 20 ms averages it while lagging the motion by 10 ms).
+SPEED_WINDOW_S = 0.02
+
+
+def as_passages(data: PassageRecording | Sequence[PassageRecording]) -> list[PassageRecording]:
+    """A list of passage recordings from one or a sequence of them (same quantity)."""
+    recs = [data] if isinstance(data, PassageRecording) else list(data)
+    if not recs or not all(isinstance(r, PassageRecording) for r in recs):
+        got = type(recs[0]).__name__ if recs else "nothing"
+        raise ConfigError(
+            f"a passage model reads single-passage recordings (read a bench's files with --mapping), got {got}"
+        )
+    if len({r.quantity for r in recs}) > 1:
+        raise ConfigError("the recordings mix tension and torque passages")
+    return recs
+
+
+@dataclass(frozen=True, eq=False)
+class PassageInputs:
+    """The arrays of one or more passage recordings, stacked in time.
+
+    Attributes
+    ----------
+    input, output : ndarray, shape (T,)
+        Input- and output-side signal [N or N m].
+    position : ndarray, shape (T,) or None
+        Input-side position [rad].
+    position_out : ndarray, shape (T,) or None
+        Output-side position [rad].
+    wrap : ndarray, shape (T,) or None
+        Wrap angle [rad]; None where it is inferred (then the capstan exponent is fitted).
+    reset : ndarray of bool, shape (T,)
+        Trajectory starts.
+    dt : float
+        Sample period [s].
+    quantity : str
+        ``torque`` or ``tension``.
+    trajectory : ndarray of str, shape (T,)
+    """
+
+    input: NDArray
+    output: NDArray
+    position: NDArray | None
+    position_out: NDArray | None
+    wrap: NDArray | None
+    reset: NDArray
+    dt: float
+    quantity: str
+    trajectory: NDArray
+    _memo: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_recordings(cls, data) -> PassageInputs:
+        recs = as_passages(data)
+        dts = {round(r.dt, 12) for r in recs}
+        if len(dts) > 1:
+            raise ConfigError(f"the recordings have different sample periods: {sorted(dts)} s")
+
+        def stacked(name):
+            parts = [r.signal(name) for r in recs]
+            return None if any(p is None for p in parts) else np.concatenate(parts)
+
+        wraps = [r.wrap() for r in recs]
+        return cls(
+            input=np.concatenate([r.input for r in recs]),
+            output=np.concatenate([r.output for r in recs]),
+            position=stacked("position"),
+            position_out=stacked("position_out"),
+            wrap=None if any(w is None for w in wraps) else np.concatenate(wraps),
+            reset=np.concatenate([r.trajectory_starts for r in recs]),
+            dt=recs[0].dt,
+            quantity=recs[0].quantity,
+            trajectory=np.concatenate([np.char.add(f"{k}/", r.trajectory_ids) for k, r in enumerate(recs)]),
+        )
+
+    def subset(self, mask: NDArray) -> PassageInputs:
+        """The frames of ``mask`` (whole trajectories), as new inputs."""
+
+        def cut(a):
+            return None if a is None else a[mask]
+
+        reset = self.reset[mask].copy()
+        if reset.size:
+            reset[0] = True
+        return PassageInputs(
+            input=self.input[mask],
+            output=self.output[mask],
+            position=cut(self.position),
+            position_out=cut(self.position_out),
+            wrap=cut(self.wrap),
+            reset=reset,
+            dt=self.dt,
+            quantity=self.quantity,
+            trajectory=self.trajectory[mask],
+        )
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.input.shape[0])
+
+    def memo(self, key: str, compute):
+        if key not in self._memo:
+            self._memo[key] = compute()
+        return self._memo[key]
+
+    @property
+    def since_start(self) -> NDArray:
+        """Time since the trajectory's first frame [s], shape (T,)."""
+
+        def compute():
+            idx = np.arange(self.n_frames)
+            first = np.maximum.accumulate(np.where(self.reset, idx, 0))
+            return (idx - first) * self.dt
+
+        return self.memo("since_start", compute)
+
+    def travel(self) -> NDArray:
+        """What the motion is measured in: the input position [rad], else the input signal."""
+        return self.position if self.position is not None else self.input
+
+    def direction(self, band: float) -> NDArray:
+        """Direction of motion of the input, +1 or -1, held through pauses, shape (T,).
+
+        A play operator of half-width ``band`` on the travel: the direction changes once the
+        travel has gone ``band`` back from its last turning point, so an encoder count that
+        flickers does not flip it.
+        """
+
+        def compute():
+            x = self.travel()
+            follower = play_operator(x, band, self.reset).log_out
+            return np.where(x - follower >= 0, 1.0, -1.0)
+
+        return self.memo(f"direction:{band!r}", compute)
+
+    def speed(self) -> NDArray:
+        """Input speed [rad/s] (or the input signal's rate), a backward difference over SPEED_WINDOW_S."""
+
+        def compute():
+            x = self.travel()
+            n = max(int(round(SPEED_WINDOW_S / self.dt)), 1)
+            idx = np.arange(self.n_frames)
+            first = np.maximum.accumulate(np.where(self.reset, idx, 0))
+            back = np.maximum(idx - n, first)
+            span = np.maximum(idx - back, 1) * self.dt
+            return (x - x[back]) / span
+
+        return self.memo("speed", compute)

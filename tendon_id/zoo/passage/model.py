@@ -1,0 +1,212 @@
+"""``passage-capstan``: one capstan passage on a bench, with the passage's effect blocks (DESIGN §6, §14).
+
+The base predicts the output side from the input side (``direction="forward"``, the default)
+through the capstan law of :mod:`friction_models.passage`: a single tendon
+(``quantity = "tension"``) or an antagonistic pair (``"torque"``), in the slip direction of the
+input's motion. Blocks (:mod:`tendon_id.zoo.passage.blocks`) add what the base leaves out.
+
+Why forward by default: the input side is what a robot measures (its motors' torques and
+positions), and the output side, the force at the tool or joint, is what a user wants to know;
+it is also the snake's direction (joint-side tensions from actuator-side ones).
+``direction="inverse"`` predicts the input side instead: the torque a motor needs for a
+desired output, as feedforward.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from friction_models.dahl import travel_lag
+from friction_models.passage import pair_input, pair_output, tendon_input, tendon_output
+from friction_models.play_operator import play_output
+from tendon_id.data.passage import PassageRecording
+from tendon_id.errors import ConfigError
+from tendon_id.metrics import tendon_metrics
+from tendon_id.zoo.estimator import Estimator
+from tendon_id.zoo.passage.blocks import PASSAGE_BLOCKS, PassageBlock, make_block, scale_band
+from tendon_id.zoo.passage.inputs import PassageInputs
+
+DIRECTIONS = ("forward", "inverse")
+#: The capstan law's parameters per quantity: [unit] (``Q``: the passage's quantity, N or N m).
+LAW_PARAMS = {
+    "torque": {"gain": "-", "phi": "-", "pretension": "Q", "sharing": "-", "offset": "Q"},
+    "tension": {"gain": "-", "phi": "-", "offset": "Q"},
+}
+
+
+class PassageModel(Estimator):
+    """Base of the single-passage models: data checks, scoring (the estimator contract of the zoo)."""
+
+    #: The data's quantity the model was fitted on (``torque`` or ``tension``).
+    quantity_: str | None = None
+
+    @property
+    def is_fitted(self) -> bool:
+        return self.quantity_ is not None
+
+    def _inputs(self, data) -> PassageInputs:
+        self.check_fitted()
+        inputs = data if isinstance(data, PassageInputs) else PassageInputs.from_recordings(data)
+        if inputs.quantity != self.quantity_:
+            raise ConfigError(
+                f"the model was fitted on a {self.quantity_} passage, the data is a {inputs.quantity} one"
+            )
+        return inputs
+
+    def target(self, data) -> NDArray:
+        """The measured side this model predicts [N or N m], shape (T,)."""
+        inputs = data if isinstance(data, PassageInputs) else PassageInputs.from_recordings(data)
+        return inputs.output if self.direction == "forward" else inputs.input
+
+    def score(self, data: PassageRecording | Sequence[PassageRecording]) -> dict[str, Any]:
+        """``{"predicted": M}``: RMSE, R^2 and max error of the predicted side, after the warm-up."""
+        inputs = self._inputs(data)
+        keep = inputs.since_start >= float(self.warmup_s)
+        pred = self.predict(inputs)[keep]
+        return {"predicted": tendon_metrics(pred[:, None], self.target(inputs)[keep][:, None]), "side": self.side}
+
+    @property
+    def side(self) -> str:
+        """``output`` (forward) or ``input`` (inverse): what :meth:`predict` returns."""
+        return "output" if self.direction == "forward" else "input"
+
+
+class PassageCapstan(PassageModel):
+    """A capstan passage with effect blocks.
+
+    Parameters
+    ----------
+    blocks : sequence of str
+        Effect blocks (:data:`~tendon_id.zoo.passage.blocks.PASSAGE_BLOCKS`): ``stick_slip``,
+        ``smooth_edge``, ``position_torque``, ``velocity_friction``, ``load_coulomb``.
+    direction : {"forward", "inverse"}
+        Predict the output from the input (default; see the module docstring), or the reverse.
+    warmup_s : float
+        Seconds at each trajectory's start left out of the fit and the score [s]: the friction
+        state at a log's start is unknown until a first reversal.
+    n_starts : int
+        Starts of the fit (values of ``phi`` spread over its range).
+    maxeval : int
+        Jacobian evaluations per start (each costs one model evaluation per parameter).
+    """
+
+    name: ClassVar[str] = "passage-capstan"
+
+    def __init__(
+        self,
+        blocks: Sequence[str] = (),
+        direction: str = "forward",
+        warmup_s: float = 1.0,
+        n_starts: int = 3,
+        maxeval: int = 100,
+    ):
+        self.blocks = tuple(blocks)
+        self.direction = direction
+        self.warmup_s = warmup_s
+        self.n_starts = n_starts
+        self.maxeval = maxeval
+
+    # ---- structure -------------------------------------------------------------------
+    @property
+    def block_objects(self) -> list[PassageBlock]:
+        if self.direction not in DIRECTIONS:
+            raise ConfigError(f"direction must be one of {DIRECTIONS}, got {self.direction!r}")
+        out = [make_block(b) for b in self.blocks]
+        if len({b.effect for b in out}) < len(out):
+            raise ConfigError(f"a block is named twice in {list(self.blocks)}")
+        return out
+
+    def with_blocks(self, *effects: str) -> PassageCapstan:
+        """An unfitted copy with ``effects`` added."""
+        return type(self)(
+            **{**self.get_params(), "blocks": self.blocks + tuple(e for e in effects if e not in self.blocks)}
+        )
+
+    def param_labels(self, quantity: str) -> list[str]:
+        """Names of the fitted parameters: the law's, then ``block:param``."""
+        return list(LAW_PARAMS[quantity]) + [f"{b.effect}:{p}" for b in self.block_objects for p in b.param_names]
+
+    # ---- the physics ----------------------------------------------------------------
+    def edges(self, inputs: PassageInputs, theta: dict) -> tuple[NDArray, NDArray]:
+        """The predicted side at forward slip and at reverse slip [Q], each shape (T,)."""
+        law = {k: theta[k] for k in LAW_PARAMS[inputs.quantity]}
+        phi = law["phi"] * (inputs.wrap if inputs.wrap is not None else 1.0)
+        load = theta["offset"] + sum(
+            (b.load(inputs, _values(theta, b)) for b in self.block_objects if b.stage == "load"), 0.0
+        )
+        out = []
+        for sigma in (1.0, -1.0):
+            if self.direction == "forward":
+                y = (
+                    pair_output(inputs.input, law["pretension"], phi, law["gain"], sigma, law["sharing"])
+                    if inputs.quantity == "torque"
+                    else tendon_output(inputs.input, phi, law["gain"], sigma)
+                )
+                out.append(y + load)
+            else:
+                y = inputs.output - load
+                out.append(
+                    pair_input(y, law["pretension"], phi, law["gain"], sigma, law["sharing"])
+                    if inputs.quantity == "torque"
+                    else tendon_input(y, phi, law["gain"], sigma)
+                )
+        return out[0], out[1]
+
+    def reading(self, inputs: PassageInputs, theta: dict) -> NDArray:
+        """The predicted side [Q], shape (T,), for parameters ``theta`` (``{label: value}``).
+
+        Base: the slip edge of the current direction of motion. ``stick_slip``: held between the
+        edges (play operator). ``smooth_edge``: that, lagged in the input's travel (Dahl).
+        """
+        forward, reverse = self.edges(inputs, theta)
+        on_edge = np.where(inputs.direction(scale_band(inputs)) > 0, forward, reverse)
+        if any(b.stage == "state" for b in self.block_objects):
+            # A log starts on the edge of its first motion (the base's choice).
+            lo = np.where(inputs.reset, on_edge, np.minimum(forward, reverse))
+            hi = np.where(inputs.reset, on_edge, np.maximum(forward, reverse))
+            y = play_output(lo, hi, inputs.reset)
+        else:
+            y = on_edge
+        length = theta.get("smooth_edge:length", 0.0)
+        return travel_lag(y, inputs.travel(), length, inputs.reset) if length > 0 else y
+
+    # ---- estimator -------------------------------------------------------------------
+    def fit(self, data: PassageRecording | Sequence[PassageRecording]) -> PassageCapstan:
+        """Fit the law and the blocks' parameters (:mod:`~tendon_id.zoo.passage.fitting`); returns ``self``."""
+        from tendon_id.zoo.passage.fitting import calibrate_passage
+
+        inputs = PassageInputs.from_recordings(data)
+        for b in self.block_objects:
+            b.check(inputs)
+            missing = [r for r in b.requires if r not in self.blocks]
+            if missing:
+                raise ConfigError(f"the {b.effect} block refines {', '.join(missing)}: add it too")
+        result = calibrate_passage(self, inputs)
+        self.theta_ = dict(result.theta)
+        self.quantity_ = inputs.quantity
+        self.calibration_ = result.summary()
+        return self
+
+    def predict(self, data) -> NDArray:
+        """The predicted side (output when forward) [N or N m], shape (T,)."""
+        inputs = self._inputs(data)
+        return self.reading(inputs, self.theta_)
+
+    def _state(self):
+        return {"quantity": self.quantity_, "theta": self.theta_, "calibration": self.calibration_}, {}
+
+    def _restore(self, state, arrays):
+        self.quantity_ = state["quantity"]
+        self.theta_ = {k: float(v) for k, v in state["theta"].items()}
+        self.calibration_ = state.get("calibration", {})
+
+
+def _values(theta: dict, block: PassageBlock) -> dict[str, float]:
+    return {p: theta[f"{block.effect}:{p}"] for p in block.param_names}
+
+
+__all__ = ["DIRECTIONS", "LAW_PARAMS", "PASSAGE_BLOCKS", "PassageCapstan", "PassageModel"]
