@@ -45,7 +45,7 @@ from tendon_id.data.io import first_line
 from tendon_id.data.passage import OPTIONAL_COLUMNS, PASSAGE_COLUMNS, QUANTITIES, PassageRecording
 from tendon_id.data.recording import Recording
 from tendon_id.data.schema import TENSION_RE, THETA_RE
-from tendon_id.data.units import si_factor
+from tendon_id.data.units import DIMENSIONS, si_factor
 from tendon_id.errors import ConfigError, RecordingError
 
 try:
@@ -170,7 +170,7 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         column = spec["column"]
         if isinstance(column, bool) or not isinstance(column, (str, int)) or (isinstance(column, int) and column < 1):
             raise ConfigError(f"{where}: column must be a name or a number from 1, got {column!r}")
-        unit = spec.get("unit", _default_unit(sk))
+        unit = spec.get("unit", DIMENSIONS[sk])
         scale, sign = spec.get("scale", 1.0), spec.get("sign", 1)
         if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not np.isfinite(scale) or scale == 0:
             raise ConfigError(f"{where}: scale must be a finite, non-zero number, got {scale!r}")
@@ -206,10 +206,6 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         wrap_angle=wrap,
         meta=dict(_table(doc, "meta", set(), src)),
     )
-
-
-def _default_unit(kind: str) -> str:
-    return {"time": "s", "angle": "rad", "tension": "N", "torque": "N*m"}[kind]
 
 
 def _read_raw(path: Path, m: DataMapping) -> pd.DataFrame:

@@ -122,12 +122,11 @@ class PassageInputs:
     def since_start(self) -> NDArray:
         """Time since the trajectory's first frame [s], shape (T,)."""
 
-        def compute():
-            idx = np.arange(self.n_frames)
-            first = np.maximum.accumulate(np.where(self.reset, idx, 0))
-            return (idx - first) * self.dt
+        return self.memo("since_start", lambda: (np.arange(self.n_frames) - self._first()) * self.dt)
 
-        return self.memo("since_start", compute)
+    def _first(self) -> NDArray:
+        """Index of each frame's trajectory start, shape (T,)."""
+        return self.memo("first", lambda: np.maximum.accumulate(np.where(self.reset, np.arange(self.n_frames), 0)))
 
     def travel(self) -> NDArray:
         """What the motion is measured in: the input position [rad], else the input signal."""
@@ -155,8 +154,7 @@ class PassageInputs:
             x = self.travel()
             n = max(int(round(SPEED_WINDOW_S / self.dt)), 1)
             idx = np.arange(self.n_frames)
-            first = np.maximum.accumulate(np.where(self.reset, idx, 0))
-            back = np.maximum(idx - n, first)
+            back = np.maximum(idx - n, self._first())
             span = np.maximum(idx - back, 1) * self.dt
             return (x - x[back]) / span
 
