@@ -23,6 +23,7 @@ from tendon_id.extras import require_extra
 from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
 from tendon_id.zoo.capstan import TYINGS, CapstanModel
+from tendon_id.zoo.passage import PASSAGE_BLOCKS, PassageModel
 from tendon_id.zoo.registry import names as model_names
 from tendon_id.zoo.registry import names_of
 
@@ -281,16 +282,23 @@ def identifiability(
 def diagnose(
     data: list[Path] = typer.Option(None, "--data", help="Training recording(s); repeat for several."),
     test: list[Path] = typer.Option(
-        None, "--test", help="Held-out recording(s); without them, cross-validation by trajectory."
+        None,
+        "--test",
+        help="Held-out recording(s); without them, cross-validation by trajectory (by file for a bench).",
     ),
     base: str = typer.Option(
         ...,
         "--base",
-        help=f"The base: a folder from 'tendon-id fit', or a zoo name ({_one_of(names_of(CapstanModel))}).",
+        help=f"The base: a folder from 'tendon-id fit', or a zoo name ({_one_of(names_of(CapstanModel))}, "
+        "or passage-capstan for a bench's files).",
     ),
     candidates: Optional[str] = typer.Option(
-        None, "--candidates", help=f"Comma-separated candidate effects (default all: {', '.join(EFFECT_NAMES)})."
+        None,
+        "--candidates",
+        help=f"Comma-separated candidate effects (default all: {', '.join(EFFECT_NAMES)}; for a passage: "
+        f"{', '.join(PASSAGE_BLOCKS)}).",
     ),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
     out: Path = typer.Option(Path("diagnosis.html"), "--out", help="Self-contained HTML report."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the JSON result."),
     jobs: int = typer.Option(1, "--jobs", help="Parallel refits (joblib; -1: every core)."),
@@ -306,11 +314,12 @@ def diagnose(
         raise TendonIdError(f"--out {out}: the report is an HTML file (.html)")
     if json_out is not None and json_out.suffix.lower() != ".json":
         raise TendonIdError(f"--json {json_out}: the file must end in .json")
-    names = candidate_names(candidates)
     model = zoo.load_model(base) if Path(base).is_dir() else zoo.make(base)
     check_base(model)
-    train = _read_all(data)
-    held = _read_all(test) if test else None
+    passage = isinstance(model, PassageModel)
+    names = candidate_names(candidates, PASSAGE_BLOCKS if passage else None)
+    train = _read_all(data, mapping)
+    held = _read_all(test, mapping) if test else None
     result = run(model, train, held, names, settings=DiagnosisSettings(seed=seed), n_jobs=jobs)
     path = write_report(result, out, json_out)
     typer.echo(result.summary())

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 
 def tendon_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float]:
@@ -50,3 +50,21 @@ def frame_weighted(metrics: Sequence[dict[str, float]], frames: Sequence[int]) -
         raise ValueError("frame counts must be positive")
     w = w / w.sum()
     return {key: float(np.sum(w * np.array([m[key] for m in metrics]))) for key in ("rmse", "r2", "max_error")}
+
+
+def jacobian_correlation(jac) -> NDArray | None:
+    """Correlations of the parameters from the Gauss–Newton covariance ``(J^T J)^-1``, or None when it is singular.
+
+    Near +-1 where the data cannot tell two parameters apart (a least-squares fit's Jacobian
+    ``jac``, shape (residuals, parameters), dense or sparse).
+    """
+    J = jac.toarray() if hasattr(jac, "toarray") else np.asarray(jac)
+    M = J.T @ J
+    try:
+        cov = np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        return None
+    d = np.sqrt(np.abs(np.diag(cov)))
+    if not np.all(d > 0) or not np.all(np.isfinite(d)):
+        return None
+    return cov / np.outer(d, d)

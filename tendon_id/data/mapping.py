@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from tendon_id.data import validation as rules
-from tendon_id.data.io import first_line
+from tendon_id.data.io import first_line, read_frame
 from tendon_id.data.passage import OPTIONAL_COLUMNS, PASSAGE_COLUMNS, QUANTITIES, PassageRecording
 from tendon_id.data.recording import Recording
 from tendon_id.data.schema import TENSION_RE, THETA_RE
@@ -310,6 +310,14 @@ def trajectory_names(paths: list[Path]) -> list[str]:
     return [re.sub(r"[\\/]+", "/", f"{p.parent.name}/{p.stem}") for p in paths]
 
 
+def read_own(path: Path):
+    """A file in our own format: a :class:`PassageRecording` where its metadata says ``kind = "passage"``."""
+    frame, meta = read_frame(path)
+    if (meta or {}).get("kind") == "passage":
+        return PassageRecording(frame, meta, source=str(path))
+    return Recording(frame, meta, source=str(path))
+
+
 def read_files(paths, mapping: DataMapping | None = None) -> list:
     """Recordings from files: our own format, or a user's through ``mapping`` (one trajectory per file).
 
@@ -320,7 +328,7 @@ def read_files(paths, mapping: DataMapping | None = None) -> list:
     """
     paths = [Path(p) for p in paths]
     if mapping is None:
-        return [Recording.read(p) for p in paths]
+        return [read_own(p) for p in paths]
     if mapping.trajectory == "file":
         return [read_mapped(p, mapping, trajectory=n) for p, n in zip(paths, trajectory_names(paths))]
     return [read_mapped(p, mapping) for p in paths]

@@ -31,7 +31,7 @@ from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult, Rung
 from tendon_id.diagnosis.runner import Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
 from tendon_id.diagnosis.splits import make_splits, stack
-from tendon_id.diagnosis.stats import ljung_box_p, noise_floor
+from tendon_id.diagnosis.stats import gap_closed, noise_floor
 from tendon_id.diagnosis.verdict import decide
 from tendon_id.diagnosis.where import gap_map
 from tendon_id.errors import ConfigError
@@ -39,29 +39,30 @@ from tendon_id.zoo.blocks import EFFECT_BLOCKS
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import as_recordings
 
-#: Subsampled points per residual-against-regressor plot.
-PLOT_POINTS = 3000
 
-
-def candidate_names(spec: str | Sequence[str] | None) -> list[str]:
-    """Validated candidate effect names (default: every effect with a block)."""
+def candidate_names(spec: str | Sequence[str] | None, known=None) -> list[str]:
+    """Validated candidate effect names among ``known`` (default: every snake effect with a block), default all."""
+    known = EFFECT_BLOCKS if known is None else known
     if spec is None:
-        return list(EFFECT_BLOCKS)
+        return list(known)
     names = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else [str(p) for p in spec]
     names = [n for n in names if n]
-    unknown = [n for n in names if n not in EFFECT_BLOCKS]
+    unknown = [n for n in names if n not in known]
     if unknown or not names:
-        raise ConfigError(f"unknown candidate effect(s) {unknown or names}; known: {', '.join(EFFECT_BLOCKS)}")
+        raise ConfigError(f"unknown candidate effect(s) {unknown or names}; known: {', '.join(known)}")
     return list(dict.fromkeys(names))
 
 
 def check_base(base) -> CapstanModel:
-    """The base model, which must be of the capstan family (its blocks are what candidates extend)."""
-    if not isinstance(base, CapstanModel):
+    """The base model, which must be of the capstan family or a passage one (its blocks are what candidates extend)."""
+    from tendon_id.zoo.passage import PassageCapstan
+
+    if not isinstance(base, (CapstanModel, PassageCapstan)):
         name = getattr(base, "name", type(base).__name__)
         raise ConfigError(
             f"the diagnosis extends a capstan-family model with effect blocks; {name!r} is not one "
-            "(use capstan-simple, capstan-contact, capstan-nonsmooth or capstan-const-mu)"
+            "(use capstan-simple, capstan-contact, capstan-nonsmooth or capstan-const-mu, or passage-capstan "
+            "for a bench)"
         )
     return base
 
@@ -80,8 +81,9 @@ def diagnose(
 
     Parameters
     ----------
-    base : CapstanModel
-        Fitted or not (an unfitted one is first fitted on ``train``).
+    base : CapstanModel or PassageCapstan
+        Fitted or not (an unfitted one is first fitted on ``train``). A passage model is
+        diagnosed on bench files by :func:`~tendon_id.diagnosis.passage.diagnose_passage`.
     train : Recording or sequence of Recording
         Training recordings (terminal labels).
     test : Recording or sequence of Recording, optional
@@ -103,6 +105,14 @@ def diagnose(
     ConfigError
         For a base outside the capstan family, unknown candidates, or too few trajectories.
     """
+    from tendon_id.zoo.passage import PassageModel
+
+    if isinstance(base, PassageModel):  # a bench's single passage
+        from tendon_id.diagnosis.passage import diagnose_passage
+
+        return diagnose_passage(
+            base, train, test, candidates, settings=settings, n_jobs=n_jobs, progress=progress
+        )  # fmt: skip
     t0 = time.perf_counter()
     settings = settings or DiagnosisSettings()
     base = check_base(base)
@@ -155,7 +165,7 @@ def diagnose(
                 effect=effect,
                 block={**blk.to_dict(), **params},
                 heldout_rmse=float(np.sqrt(mse)),
-                gap_closed=_closed(mse0, mse, floor),
+                gap_closed=gap_closed(mse0, mse, floor),
                 improvement_ci=ci,
                 significant=ci[0] > 0,
                 ic_delta=float(sum(f.bic() for f in sc.fits) - sum(f.bic() for f in base_score.fits)),
@@ -172,11 +182,10 @@ def diagnose(
     law = base_score.fits[0].model  # the signatures are shapes, not magnitudes: one split's law will do
     library = Library.build(blocks, base, heldout, law.A_, law.B_, base.block_params_)
     where = gap_map(heldout, e0, block=block, n_boot=settings.n_boot, level=1 - settings.alpha, rng=rng)
-    vote, shares = library.sparse_vote(e0)
 
     # How far: the ladder.
     ladder = [Rung(["base"], float(np.sqrt(mse0)), 0.0)]
-    ladder_model, warnings = base, []
+    ladder_model = base
     current, current_score = base, base_score
     chosen: list[str] = []
     by_effect = {effect: sc for effect, sc in zip(blocks, scores)}
@@ -203,51 +212,29 @@ def diagnose(
             chosen.append(trial[best])
             current, current_score = trial_structs[best], trial_scores[best]
             mse = float(np.nanmean(current_score.residual**2))
-            ladder.append(Rung(["base", *chosen], float(np.sqrt(mse)), _closed(mse0, mse, floor), ci))
+            ladder.append(Rung(["base", *chosen], float(np.sqrt(mse)), gap_closed(mse0, mse, floor), ci))
         ladder_model = current_score.fits[0].model
-    for c in ranked:
-        for q in c.confounded:
-            warnings.append(f"{c.effect}: {q}")
     excess_ci = scorer.excess_ci(e0, floor, block, 1 - 2 * settings.alpha, rng)
     strained = {c.effect for c in ranked if c.at_bound}
-    for c in ranked:
-        if c.at_bound:
-            warnings.append(
-                f"{c.effect}: {', '.join(c.at_bound)} reached the edge of its plausible range; the effect it stands "
-                "in for may be outside the library"
-            )
     structural = {e for e, b in blocks.items() if not b.param_names}
     verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained, structural)
-    return DiagnosisResult(
+    return DiagnosisResult.assemble(
+        residual=e0,
+        floor=floor_sim,
+        library=library,
+        ranked=ranked,
+        rng=rng,
+        heldout_frames=heldout.n_frames,
         base=base.name,
-        base_rmse=float(np.sqrt(mse0)),
-        noise_floor=floor,
-        noise_floor_upper=floor_sim.upper,
-        noise_source=floor_sim.source,
         validation=validation,
         n_train=int(splits[0].train.n_frames),
-        n_heldout=int(heldout.n_frames),
         where=where,
-        whiteness={"ljung_box_p": ljung_box_p(e0), "lags": 10},
-        cross_correlation=library.correlations(e0),
-        candidates=ranked,
         skipped=skipped,
-        vote=vote,
-        vote_shares=shares,
-        vote_agrees=bool(ranked) and vote == ranked[0].effect,
         ladder=ladder,
         verdict=verdict,
-        warnings=warnings,
         model=ladder_model,
-        plots=_plot_data(library, e0, [c.effect for c in ranked[:3]], rng),
         seconds=time.perf_counter() - t0,
     )
-
-
-def _closed(mse0: float, mse: float, floor: float) -> float:
-    """Share of the base's mean squared error above the noise floor that a model removes [-]."""
-    gap = mse0 - floor**2
-    return float((mse0 - mse) / gap) if gap > 0 else 0.0
 
 
 def _location(block) -> str:
@@ -313,13 +300,3 @@ def _merge(current, single) -> tuple:
     values = dict(current.block_params_)
     values.update({k: v for k, v in single.block_params_.items() if k not in values})
     return current.A_, current.B_, values
-
-
-def _plot_data(library: Library, residual, effects: list[str], rng) -> dict:
-    n = residual.size
-    pick = np.sort(rng.choice(n, size=min(PLOT_POINTS, n), replace=False))
-    out = {"residual": residual.ravel()[pick]}
-    for c, (label, effect) in enumerate(zip(library.labels, library.effects)):
-        if effect in effects:
-            out[label] = library.columns[..., c].ravel()[pick]
-    return out

@@ -20,6 +20,8 @@ from numpy.typing import NDArray
 #: STLSQ threshold on standardised coefficients: a column must move the standardised
 #: residual by 5 % of its spread per standard deviation to stay in the model.
 SPARSE_THRESHOLD = 0.05
+#: Subsampled points per residual-against-regressor plot.
+PLOT_POINTS = 3000
 
 
 @dataclass(frozen=True)
@@ -104,3 +106,13 @@ class Library:
             return None, {e: 0.0 for e in weight}
         shares = {e: w / total for e, w in weight.items()}
         return max(shares, key=shares.get), shares
+
+    def plot_data(self, residual: NDArray, effects: list[str], rng) -> dict:
+        """The residual and the columns of ``effects`` at PLOT_POINTS random entries, for the report."""
+        n = residual.size
+        pick = np.sort(rng.choice(n, size=min(PLOT_POINTS, n), replace=False))
+        out = {"residual": residual.ravel()[pick]}
+        for c, (label, effect) in enumerate(zip(self.labels, self.effects)):
+            if effect in effects:
+                out[label] = self.columns[..., c].ravel()[pick]
+        return out

@@ -24,6 +24,7 @@ from scipy.sparse import lil_matrix
 
 from tendon_id.errors import ConfigError
 from tendon_id.law_layout import LawLayout
+from tendon_id.metrics import jacobian_correlation
 from tendon_id.zoo.capstan import CapstanModel
 
 #: Relative step of the finite-difference Jacobian: the nonsmooth models (play operator) are
@@ -180,7 +181,7 @@ def refit(
     sse = float(np.sum(residual(z) ** 2))
     fitted.calibration_ = {"loss": sse / (3 * n_keep), "status": str(sol.message), "n_eval": n_eval, "starts": 1}
     labels = [f"{ab}[{g}]:{i + 1}" for i in range(3) for ab, g in _law_labels(layout)] + [f"{b}:{q}" for b, q in names]
-    corr = _correlation(sol.jac)
+    corr = jacobian_correlation(sol.jac)
     fitted.calibration_["seconds"] = time.perf_counter() - t0
     return Fit(fitted, sse, 3 * n_keep, n_par, labels, corr, n_eval, time.perf_counter() - t0)
 
@@ -190,17 +191,3 @@ def _law_labels(layout: LawLayout) -> list[tuple[str, int]]:
     if layout.mu_law != "affine-cosine":
         return [("mu", k) for k in range(g)]
     return [("mu0", k) for k in range(g)] + [("r", k) for k in range(g)]
-
-
-def _correlation(jac) -> NDArray | None:
-    """Correlations of the Gauss–Newton covariance ``(J^T J)^-1``, or None when it is singular."""
-    J = jac.toarray() if hasattr(jac, "toarray") else np.asarray(jac)
-    M = J.T @ J
-    try:
-        cov = np.linalg.inv(M)
-    except np.linalg.LinAlgError:
-        return None
-    d = np.sqrt(np.abs(np.diag(cov)))
-    if not np.all(d > 0) or not np.all(np.isfinite(d)):
-        return None
-    return cov / np.outer(d, d)

@@ -150,6 +150,8 @@ class DiagnosisResult:
     plots : dict
         Held-out residual and leading signature columns (subsampled) for the report.
     seconds : float
+    unit : str
+        Unit of the errors: ``N``, or ``N m`` for a torque passage.
     """
 
     base: str
@@ -174,6 +176,45 @@ class DiagnosisResult:
     model: object = None
     plots: dict = field(default_factory=dict, repr=False)
     seconds: float = 0.0
+    unit: str = "N"
+
+    @classmethod
+    def assemble(cls, *, residual, floor, library, ranked: list, rng, heldout_frames: int, **fields) -> DiagnosisResult:
+        """The result from the base's held-out ``residual`` [N], the noise ``floor``, the signatures and the ranking.
+
+        Computes what every family reports alike: the whiteness of the residual, its
+        correlation with the signatures, the sparse vote, the plots and the warnings of
+        candidates fitted onto a bound; ``fields`` are the rest (``base``, ``validation``,
+        ``n_train``, ``where``, ``skipped``, ``ladder``, ``verdict``, ``warnings``, ``model``,
+        ``seconds``, ``unit``).
+        """
+        from tendon_id.diagnosis.stats import ljung_box_p
+
+        vote, shares = library.sparse_vote(residual)
+        warnings = list(fields.pop("warnings", []))
+        warnings += [f"{c.effect}: {q}" for c in ranked for q in c.confounded]
+        warnings += [
+            f"{c.effect}: {', '.join(c.at_bound)} reached the edge of its plausible range; the effect it stands in "
+            "for may be outside the library"
+            for c in ranked
+            if c.at_bound
+        ]
+        return cls(
+            base_rmse=float(np.sqrt(np.nanmean(residual**2))),
+            noise_floor=floor.rmse,
+            noise_floor_upper=floor.upper,
+            noise_source=floor.source,
+            n_heldout=int(heldout_frames),
+            whiteness={"ljung_box_p": ljung_box_p(residual), "lags": 10},
+            cross_correlation=library.correlations(residual),
+            candidates=ranked,
+            vote=vote,
+            vote_shares=shares,
+            vote_agrees=bool(ranked) and vote == ranked[0].effect,
+            warnings=warnings,
+            plots=library.plot_data(residual, [c.effect for c in ranked[:3]], rng),
+            **fields,
+        )
 
     def to_dict(self) -> dict:
         """The JSON form: ``base``, ``gap``, ``where``, ``candidates``, ``ladder``, ``verdict`` and more."""
@@ -197,6 +238,7 @@ class DiagnosisResult:
             "skipped": self.skipped,
             "warnings": list(self.warnings),
             "seconds": self.seconds,
+            "unit": self.unit,
         }
 
     def top_strata(self, n: int = 5) -> list[Stratum]:
@@ -206,19 +248,20 @@ class DiagnosisResult:
 
     def summary(self) -> str:
         """A few lines for a terminal."""
+        u = self.unit
         lines = [
-            f"base {self.base}: held-out RMSE {self.base_rmse:.2f} N, noise floor {self.noise_floor:.2f} N "
-            f"(up to {self.noise_floor_upper:.2f} N; {self.validation})",
+            f"base {self.base}: held-out RMSE {self.base_rmse:.3g} {u}, noise floor {self.noise_floor:.3g} {u} "
+            f"(up to {self.noise_floor_upper:.3g} {u}; {self.validation})",
             f"verdict: {self.verdict.text}",
         ]
         for r in self.ladder:
-            lines.append(f"  {' + '.join(r.effects):40s} {r.heldout_rmse:8.2f} N  gap closed {r.gap_closed:6.1%}")
+            lines.append(f"  {' + '.join(r.effects):40s} {r.heldout_rmse:8.3g} {u}  gap closed {r.gap_closed:6.1%}")
         if self.candidates:
             lines.append("candidates (best first):")
             for c in self.candidates:
                 star = "*" if c.significant else " "
                 loc = f" [{c.location}]" if c.location else ""
-                lines.append(f"  {star} {c.effect:18s}{loc} {c.heldout_rmse:8.2f} N  gap closed {c.gap_closed:6.1%}")
+                lines.append(f"  {star} {c.effect:18s}{loc} {c.heldout_rmse:8.3g} {u}  gap closed {c.gap_closed:6.1%}")
         for w in self.warnings:
             lines.append(f"warning: {w}")
         return "\n".join(lines)

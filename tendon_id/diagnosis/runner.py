@@ -55,9 +55,13 @@ class Scorer:
     n_jobs : int, optional
         joblib workers (1: in this process).
     progress : bool, optional
+    task : callable, optional
+        ``task(structure, train, test, start, max_nfev) -> (fit, heldout_residual)``, a
+        module-level function (joblib pickles it); default: the snake's refit.
     """
 
-    def __init__(self, splits, settings, *, n_jobs: int | None = 1, progress: bool | None = None):
+    def __init__(self, splits, settings, *, n_jobs: int | None = 1, progress: bool | None = None, task=None):
+        self.task = task or _task
         self.splits = splits
         self.settings = settings
         self.n_jobs = 1 if n_jobs is None else int(n_jobs)
@@ -71,11 +75,11 @@ class Scorer:
             for k, split in enumerate(self.splits)
         ]
         if self.n_jobs == 1:
-            out = [_task(*job) for job in progress_bar(jobs, desc=desc, enable=self.progress)]
+            out = [self.task(*job) for job in progress_bar(jobs, desc=desc, enable=self.progress)]
         else:
             from joblib import Parallel, delayed
 
-            gen = Parallel(n_jobs=self.n_jobs, return_as="generator")(delayed(_task)(*job) for job in jobs)
+            gen = Parallel(n_jobs=self.n_jobs, return_as="generator")(delayed(self.task)(*job) for job in jobs)
             out = list(progress_bar(gen, desc=desc, total=len(jobs), enable=self.progress))
         n = len(self.splits)
         scores = []

@@ -53,6 +53,12 @@ def improvement_ci(
     return bootstrap_ci(sq[ok].mean(axis=1), block, n_boot, level, rng)
 
 
+def gap_closed(mse0: float, mse: float, floor: float) -> float:
+    """Share of the base's mean squared error ``mse0`` above the noise floor [N] that a model removes [-]."""
+    gap = mse0 - floor**2
+    return float((mse0 - mse) / gap) if gap > 0 else 0.0
+
+
 def ljung_box_p(residual: NDArray, lags: int = 10) -> list[float]:
     """Ljung–Box p-value of each column of ``residual`` (statsmodels; Ljung & Box 1978).
 
@@ -107,6 +113,17 @@ def _smooth(x: NDArray, inputs, width: int, *, median: bool = False) -> NDArray:
     return out
 
 
+def difference_floor(residual: NDArray) -> NoiseFloor:
+    """The noise floor from the residual's first differences (von Neumann 1941), without sensor metadata.
+
+    A model error that varies slowly next to the noise cancels in them, so
+    ``floor = std(diff(e)) / sqrt(2)``; it has no spread (``upper = rmse``). NaN frames (a
+    model's warm-up) are left out.
+    """
+    f = float(np.nanstd(np.diff(residual, axis=0)) / np.sqrt(2.0))
+    return NoiseFloor(f, f, "first differences of the residual")
+
+
 def noise_floor(
     sensors: MeasurementNoise, model, inputs, residual: NDArray, rng, *, draws: int = 20, level: float = 0.95
 ) -> NoiseFloor:
@@ -149,9 +166,7 @@ def noise_floor(
     """
     sigma = sensors.load_cell
     if sigma is None or not sigma > 0:
-        d = np.diff(residual, axis=0)
-        f = float(np.nanstd(d) / np.sqrt(2.0))
-        return NoiseFloor(f, f, "first differences of the residual")
+        return difference_floor(residual)
     actuator = _smooth(inputs.actuator, inputs, max(int(round(1.0 / inputs.dt)) | 1, 3), median=True)
     step = sensors.encoder_step
     angles = _smooth(inputs.angles, inputs, 3) if step else inputs.angles

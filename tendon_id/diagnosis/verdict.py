@@ -60,6 +60,7 @@ def decide(
     settings,
     strained: set | frozenset = (),
     structural: set | frozenset = (),
+    unit: str = "N",
 ) -> Verdict:
     """Read the verdict off the base's gap and the ladder.
 
@@ -95,6 +96,8 @@ def decide(
         Effects whose fitted parameters reached a bound.
     structural : set of str
         Effects whose blocks have no free parameters.
+    unit : str
+        Unit of the errors in the text (``N``, or ``N m`` for a torque passage).
     """
     # The paired models: the first rung (a structural one with its own margin) and the ladder's end.
     paired = []
@@ -106,9 +109,9 @@ def decide(
             "none",
             [],
             0.0,
-            f"no significant gap: the base's {np.sqrt(mse0):.2f} N is within what the sensors alone give "
-            f"(noise floor {floor.rmse:.2f} N, up to {floor.upper:.2f} N), and no better model lowers its mean "
-            f"squared error on the same frames by {settings.min_excess:.0%} or more",
+            f"no significant gap: the base's {np.sqrt(mse0):.3g} {unit} is within what the sensors alone give "
+            f"(noise floor {floor.rmse:.3g} {unit}, up to {floor.upper:.3g} {unit}), and no better model lowers its "
+            f"mean squared error on the same frames by {settings.min_excess:.0%} or more",
         )
     if len(ladder) >= 2 and ladder[1].effects[-1] in strained:
         e = ladder[1].effects[-1]
@@ -131,8 +134,8 @@ def decide(
             "explained",
             effects,
             remaining,
-            f"explained by {', '.join(effects)}: what remains ({ladder[-1].heldout_rmse:.2f} N) is within what the "
-            "sensors alone give",
+            f"explained by {', '.join(effects)}: what remains ({ladder[-1].heldout_rmse:.3g} {unit}) is within what "
+            "the sensors alone give",
         )
     if closed >= settings.explained_share:
         return Verdict("explained", effects, remaining, f"explained by {', '.join(effects)} ({closed:.0%} of the gap)")

@@ -143,13 +143,15 @@ def strata_masks(inputs) -> list[tuple[str, str, NDArray]]:
     return out
 
 
-def gap_map(inputs, residual: NDArray, *, block: int, n_boot: int, level: float, rng) -> list[Stratum]:
-    """The strata of :func:`strata_masks` with their error shares and biases.
+def gap_map(inputs, residual: NDArray, *, block: int, n_boot: int, level: float, rng, masks=None) -> list[Stratum]:
+    """The strata of :func:`strata_masks` (or ``masks``) with their error shares and biases.
 
     Parameters
     ----------
     inputs : TransmissionInputs
         Held-out data.
+    masks : list of (name, kind, mask), optional
+        Strata of another data kind (a bench passage's).
     residual : ndarray, shape (T, 3)
         Measured minus predicted terminal reading of the base [N].
     block : int
@@ -160,7 +162,7 @@ def gap_map(inputs, residual: NDArray, *, block: int, n_boot: int, level: float,
     n_all = int(np.isfinite(residual).sum())
     rows = []
     valid = np.isfinite(residual)  # NaN in the model's warm-up
-    for name, kind, mask in strata_masks(inputs):
+    for name, kind, mask in strata_masks(inputs) if masks is None else masks:
         m = np.broadcast_to(mask if mask.ndim == 2 else mask[:, None], residual.shape) & valid
         if not m.any():
             continue

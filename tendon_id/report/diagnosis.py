@@ -39,10 +39,11 @@ def ladder_figure(result: DiagnosisResult):
         top = rmse[k - 1] if k else rmse[0]
         bottom = rmse[k] if k else 0.0
         ax.bar(k, top - bottom, bottom=bottom, color="tab:blue" if k == 0 else "tab:green")
-        ax.text(k, rmse[k], f"{rmse[k]:.2f} N", ha="center", va="bottom", fontsize=8)
-    ax.axhline(result.noise_floor, color="k", ls="--", lw=1, label=f"noise floor {result.noise_floor:.2f} N")
+        ax.text(k, rmse[k], f"{rmse[k]:.3g} {result.unit}", ha="center", va="bottom", fontsize=8)
+    floor = f"noise floor {result.noise_floor:.3g} {result.unit}"
+    ax.axhline(result.noise_floor, color="k", ls="--", lw=1, label=floor)
     ax.set_xticks(range(len(rmse)), labels, fontsize=8)
-    ax.set_ylabel("held-out terminal RMSE [N]")
+    ax.set_ylabel(f"held-out RMSE [{result.unit}]")
     ax.legend(fontsize=8)
     ax.set_title("How far the gap shrinks")
     fig.tight_layout()
@@ -62,19 +63,20 @@ def residual_figure(result: DiagnosisResult):
     for ax, label in zip(axes[0], cols):
         ax.plot(result.plots[label], e, ".", ms=1.5, alpha=0.4)
         ax.set_title(f"{label}\ncorrelation {corr.get(label, float('nan')):+.2f}", fontsize=8)
-        ax.set_xlabel("signature regressor [N]", fontsize=8)
+        ax.set_xlabel(f"signature regressor [{result.unit}]", fontsize=8)
         ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("base residual [N]")
+    axes[0][0].set_ylabel(f"base residual [{result.unit}]")
     fig.tight_layout()
     return fig
 
 
 def report_page(result: DiagnosisResult) -> HtmlPage:
     page = HtmlPage(f"Sim-to-real gap diagnosis of {result.base}")
+    u = result.unit
     page.paragraph(f"Verdict: {result.verdict.text}.")
     page.paragraph(
-        f"Held-out terminal RMSE of the base {result.base_rmse:.3g} N against a noise floor of "
-        f"{result.noise_floor:.3g} N (upper quantile over simulated sensor draws: {result.noise_floor_upper:.3g} N; "
+        f"Held-out RMSE of the base {result.base_rmse:.3g} {u} against a noise floor of "
+        f"{result.noise_floor:.3g} {u} (upper quantile: {result.noise_floor_upper:.3g} {u}; "
         f"{result.noise_source}); {result.validation}, {result.n_heldout} held-out frames. "
         f"Ljung–Box p-values of the base residual per tendon (lag {result.whiteness.get('lags')}): "
         + ", ".join(("< 0.001" if p < 1e-3 else f"{p:.2g}") for p in result.whiteness.get("ljung_box_p", []))
@@ -86,7 +88,7 @@ def report_page(result: DiagnosisResult) -> HtmlPage:
     page.heading("Where")
     page.figure(gap_map_figure(result), "Share of the held-out squared error and of the frames, per stratum.")
     page.table(
-        ["stratum", "share of error", "share of frames", "bias [N]", "bias 95 % interval [N]"],
+        ["stratum", "share of error", "share of frames", f"bias [{u}]", f"bias 95 % interval [{u}]"],
         [
             [s.stratum, s.share_error, s.share_frames, s.bias, f"{s.bias_ci[0]:.3g} … {s.bias_ci[1]:.3g}"]
             for s in result.top_strata(12)
@@ -94,7 +96,7 @@ def report_page(result: DiagnosisResult) -> HtmlPage:
     )
     page.heading("Which")
     page.table(
-        ["effect", "where", "held-out RMSE [N]", "gap closed", "significant", "ΔBIC (train)", "fitted parameters"],
+        ["effect", "where", f"held-out RMSE [{u}]", "gap closed", "significant", "ΔBIC (train)", "fitted parameters"],
         [
             [
                 c.effect,
@@ -122,7 +124,7 @@ def report_page(result: DiagnosisResult) -> HtmlPage:
     page.heading("How far")
     page.figure(ladder_figure(result), "Held-out RMSE after each effect the ladder adds.")
     page.table(
-        ["rung", "held-out RMSE [N]", "gap closed"],
+        ["rung", f"held-out RMSE [{u}]", "gap closed"],
         [[" + ".join(r.effects), r.heldout_rmse, f"{r.gap_closed:.0%}"] for r in result.ladder],
     )
     page.paragraph(f"Diagnosed in {result.seconds:.0f} s.", cls="note")

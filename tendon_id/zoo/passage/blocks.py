@@ -13,8 +13,10 @@ stage      hook                                              blocks
 ``edge``   how it moves from one edge to the other           ``smooth_edge`` (Dahl lag in travel)
 =========  ===============================================  =======================================
 
-Without a ``state`` block the predicted side is on the edge of the current direction of motion
-(it switches the moment the motion reverses); without an ``edge`` block the switch is sharp.
+Without a ``state`` block the passage has no memory: the predicted side is on the edge of the
+current slip state, the paper's Eq. (6) with ``sigma`` = +1 or -1 while the input moves and 0 in
+stick (at rest, the ratio is 1). ``stick_slip`` holds it through rests and reversals instead.
+Without an ``edge`` block the switch is sharp.
 Effects keep the snake's names where the physics is the same (``stick_slip``,
 ``velocity_friction``). Each block declares its parameters with bounds, the neutral value that
 switches it off, and a probe (a typical magnitude) for the diagnosis's signatures.
@@ -161,7 +163,7 @@ class PositionTorque(PassageBlock):
 
 @dataclass(frozen=True)
 class VelocityFriction(PassageBlock):
-    """Viscous friction: ``-c v`` on the output side, ``v`` the input speed [rad/s]; ``c`` [Q s/rad].
+    """Viscous friction: ``-c v`` on the output side, ``v`` the input speed [rad/s]; ``c`` [Q s/rad], >= 0.
 
     The same effect as the snake's ``velocity_friction``: a friction that grows with speed.
     """
@@ -172,8 +174,8 @@ class VelocityFriction(PassageBlock):
     regressor: ClassVar[str] = "the input speed"
 
     def bounds(self, scale):
-        b = 10.0 * scale["signal"] / max(scale["speed"], 1e-9)
-        return {"c": (-b, b)}
+        # Viscous friction dissipates: c >= 0.
+        return {"c": (0.0, 10.0 * scale["signal"] / max(scale["speed"], 1e-9))}
 
     def probe(self, scale):
         return {"c": 0.1 * scale["signal"] / max(scale["speed"], 1e-9)}
@@ -184,25 +186,28 @@ class VelocityFriction(PassageBlock):
 
 @dataclass(frozen=True)
 class LoadCoulomb(PassageBlock):
-    """Coulomb friction on the load side: ``-f d`` on the output, ``d`` the direction of motion; ``f`` [Q].
+    """Coulomb friction on the load side: ``-f sigma`` on the output, ``sigma`` the slip state; ``f`` [Q].
 
-    It flips with the motion, outside the capstan: it does not scale with the cable tensions and
-    does not hold through a reversal.
+    Friction between the cables and the output sensor (a joint's pivot), outside the capstan:
+    it does not scale with the cable tensions, flips with the motion and is 0 in stick
+    (:meth:`~tendon_id.zoo.passage.inputs.PassageInputs.slip_state`), so it does not hold
+    through a reversal. It opposes the motion, so ``f >= 0``.
     """
 
     effect: ClassVar[str] = "load_coulomb"
     param_names: ClassVar[tuple[str, ...]] = ("f",)
     units: ClassVar[dict[str, str]] = {"f": "Q"}
-    regressor: ClassVar[str] = "the direction of motion"
+    regressor: ClassVar[str] = "the slip state (the sign of the motion, 0 at rest)"
 
     def bounds(self, scale):
-        return {"f": (-scale["signal"], scale["signal"])}
+        # Friction between the cables and the output sensor opposes the motion: f >= 0.
+        return {"f": (0.0, scale["signal"])}
 
     def probe(self, scale):
         return {"f": 0.05 * scale["signal"]}
 
     def load(self, inputs, values):
-        return -values["f"] * inputs.direction(scale_band(inputs))
+        return -values["f"] * inputs.slip_state(scale_band(inputs))
 
 
 def scale_band(inputs) -> float:

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from tendon_id.errors import ConfigError
+from tendon_id.metrics import jacobian_correlation
 from tendon_id.zoo.passage.blocks import scale_band
 
 
@@ -46,6 +47,11 @@ class PassageFit:
     n_eval : int
         Model evaluations over all starts.
     seconds : float
+    starts : list of float
+        The cost reached from each start.
+    corr : ndarray, shape (P, P), optional
+        Correlation of the parameters from the Jacobian at the solution (Gauss-Newton
+        covariance); near +-1 where the data cannot tell two apart.
     """
 
     theta: dict
@@ -58,6 +64,7 @@ class PassageFit:
     n_eval: int
     seconds: float
     starts: list = field(default_factory=list)
+    corr: NDArray | None = None
 
     def summary(self) -> dict:
         return {
@@ -93,6 +100,7 @@ def parameter_box(model, inputs) -> tuple[list[str], NDArray, NDArray]:
         "pretension": (0.0, 5.0 * s["input"]),
         "sharing": (0.0, 1.0),
         "offset": (-2.0 * s["signal"], 2.0 * s["signal"]),
+        "input_offset": (-s["input"], s["input"]),
     }
     labels = model.param_labels(inputs.quantity)
     box = []
@@ -125,6 +133,7 @@ def regression_start(inputs, phi: float) -> dict[str, float]:
         "pretension": max(float(beta * a), 0.0) / (2.0 * gain * max(np.sinh(phi), 1e-6)),
         "sharing": 0.1,
         "offset": float(-gamma * a),
+        "input_offset": 0.0,
     }
 
 
@@ -178,5 +187,15 @@ def calibrate_passage(model, inputs, start: dict | None = None) -> PassageFit:
     theta = dict(zip(labels, best.x.tolist()))
     rmse = float(np.sqrt(2.0 * best.cost / keep.sum()))
     return PassageFit(
-        theta, labels, lo, hi, rmse, int(keep.sum()), str(best.message), n_eval, time.perf_counter() - t0, costs
+        theta,
+        labels,
+        lo,
+        hi,
+        rmse,
+        int(keep.sum()),
+        str(best.message),
+        n_eval,
+        time.perf_counter() - t0,
+        costs,
+        jacobian_correlation(best.jac),
     )

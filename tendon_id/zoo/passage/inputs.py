@@ -88,6 +88,20 @@ class PassageInputs:
             trajectory=np.concatenate([np.char.add(f"{k}/", r.trajectory_ids) for k, r in enumerate(recs)]),
         )
 
+    @classmethod
+    def concat(cls, parts: Sequence[PassageInputs]) -> PassageInputs:
+        """Inputs stacked in time (each part starts a trajectory)."""
+
+        def joined(name):
+            arrays = [getattr(p, name) for p in parts]
+            return None if any(a is None for a in arrays) else np.concatenate(arrays)
+
+        return cls(
+            **{f: joined(f) for f in ("input", "output", "position", "position_out", "wrap", "reset", "trajectory")},
+            dt=parts[0].dt,
+            quantity=parts[0].quantity,
+        )
+
     def subset(self, mask: NDArray) -> PassageInputs:
         """The frames of ``mask`` (whole trajectories), as new inputs."""
 
@@ -146,6 +160,44 @@ class PassageInputs:
             return np.where(x - follower >= 0, 1.0, -1.0)
 
         return self.memo(f"direction:{band!r}", compute)
+
+    def slip_state(self, band: float) -> NDArray:
+        """The slip state of the paper's Eq. (6), memoryless: +1, -1, or 0 (stick), shape (T,).
+
+        The sign of the travel's change over the last SPEED_WINDOW_S where it exceeds ``band``,
+        else 0: a model without a holding state knows only whether the input moves now.
+        """
+
+        def compute():
+            x = self.travel()
+            moved = x - x[self._back()]
+            return np.where(np.abs(moved) > band, np.sign(moved), 0.0)
+
+        return self.memo(f"slip:{band!r}", compute)
+
+    def first_motion(self, band: float) -> NDArray:
+        """Each frame's trajectory's first slip state other than stick (+1 where it never moves), shape (T,).
+
+        Where a log starts, the friction state is unknown; the first motion tells which edge
+        the passage is on, as :meth:`direction` (which starts forward) cannot.
+        """
+
+        def compute():
+            sigma = self.slip_state(band)
+            moving = np.flatnonzero(sigma != 0)
+            first = self._first()
+            starts = np.flatnonzero(self.reset)
+            at = np.searchsorted(moving, starts)
+            idx = moving[np.minimum(at, max(moving.size - 1, 0))] if moving.size else starts
+            first_sigma = np.where((at < moving.size) & (first[idx] == starts), sigma[idx], 1.0)
+            return first_sigma[np.searchsorted(starts, first, side="left")]
+
+        return self.memo(f"first_motion:{band!r}", compute)
+
+    def _back(self) -> NDArray:
+        """Index of the frame SPEED_WINDOW_S before each frame (not before its trajectory's start)."""
+        n = max(int(round(SPEED_WINDOW_S / self.dt)), 1)
+        return np.maximum(np.arange(self.n_frames) - n, self._first())
 
     def speed(self) -> NDArray:
         """Input speed [rad/s] (or the input signal's rate), a backward difference over SPEED_WINDOW_S."""

@@ -32,8 +32,10 @@ from tendon_id.zoo.passage.inputs import PassageInputs
 
 DIRECTIONS = ("forward", "inverse")
 #: The capstan law's parameters per quantity: [unit] (``Q``: the passage's quantity, N or N m).
+#: ``offset`` and ``input_offset`` are the output and input sensors' zeros (a torque sensor's
+#: drifts; a tension's is part of its calibration).
 LAW_PARAMS = {
-    "torque": {"gain": "-", "phi": "-", "pretension": "Q", "sharing": "-", "offset": "Q"},
+    "torque": {"gain": "-", "phi": "-", "pretension": "Q", "sharing": "-", "offset": "Q", "input_offset": "Q"},
     "tension": {"gain": "-", "phi": "-", "offset": "Q"},
 }
 
@@ -131,18 +133,25 @@ class PassageCapstan(PassageModel):
         return list(LAW_PARAMS[quantity]) + [f"{b.effect}:{p}" for b in self.block_objects for p in b.param_names]
 
     # ---- the physics ----------------------------------------------------------------
-    def edges(self, inputs: PassageInputs, theta: dict) -> tuple[NDArray, NDArray]:
-        """The predicted side at forward slip and at reverse slip [Q], each shape (T,)."""
+    def edges(self, inputs: PassageInputs, theta: dict, *sigmas) -> tuple[NDArray, NDArray]:
+        """The predicted side [Q], shape (T,), in each slip state of ``sigmas``.
+
+        By default forward and reverse slip (+1, -1): the two edges of the stick/slip band. An
+        array gives a slip state per frame (+1, -1 or 0, the paper's Eq. (6)). A torque pair's
+        input is read from the input sensor's zero, ``input_offset``.
+        """
         law = {k: theta[k] for k in LAW_PARAMS[inputs.quantity]}
         phi = law["phi"] * (inputs.wrap if inputs.wrap is not None else 1.0)
         load = theta["offset"] + sum(
             (b.load(inputs, _values(theta, b)) for b in self.block_objects if b.stage == "load"), 0.0
         )
         out = []
-        for sigma in (1.0, -1.0):
+        for sigma in sigmas or (1.0, -1.0):
             if self.direction == "forward":
                 y = (
-                    pair_output(inputs.input, law["pretension"], phi, law["gain"], sigma, law["sharing"])
+                    pair_output(
+                        inputs.input - law["input_offset"], law["pretension"], phi, law["gain"], sigma, law["sharing"]
+                    )
                     if inputs.quantity == "torque"
                     else tendon_output(inputs.input, phi, law["gain"], sigma)
                 )
@@ -150,27 +159,29 @@ class PassageCapstan(PassageModel):
             else:
                 y = inputs.output - load
                 out.append(
-                    pair_input(y, law["pretension"], phi, law["gain"], sigma, law["sharing"])
+                    law["input_offset"] + pair_input(y, law["pretension"], phi, law["gain"], sigma, law["sharing"])
                     if inputs.quantity == "torque"
                     else tendon_input(y, phi, law["gain"], sigma)
                 )
-        return out[0], out[1]
+        return tuple(out)
 
     def reading(self, inputs: PassageInputs, theta: dict) -> NDArray:
         """The predicted side [Q], shape (T,), for parameters ``theta`` (``{label: value}``).
 
-        Base: the slip edge of the current direction of motion. ``stick_slip``: held between the
-        edges (play operator). ``smooth_edge``: that, lagged in the input's travel (Dahl).
+        Base: memoryless, on the edge of the current slip state (Eq. (6): ``sigma`` = +1 or -1
+        while the input moves, 0 at rest). ``stick_slip``: held between the edges (play
+        operator), from the edge of each log's first motion. ``smooth_edge``: that, lagged in
+        the input's travel (Dahl).
         """
-        forward, reverse = self.edges(inputs, theta)
-        on_edge = np.where(inputs.direction(scale_band(inputs)) > 0, forward, reverse)
-        if any(b.stage == "state" for b in self.block_objects):
-            # A log starts on the edge of its first motion (the base's choice).
+        if not any(b.stage == "state" for b in self.block_objects):
+            (y,) = self.edges(inputs, theta, inputs.slip_state(scale_band(inputs)))
+        else:
+            forward, reverse = self.edges(inputs, theta)
+            # A log starts on the edge of its first motion.
+            on_edge = np.where(inputs.first_motion(scale_band(inputs)) > 0, forward, reverse)
             lo = np.where(inputs.reset, on_edge, np.minimum(forward, reverse))
             hi = np.where(inputs.reset, on_edge, np.maximum(forward, reverse))
             y = play_output(lo, hi, inputs.reset)
-        else:
-            y = on_edge
         length = theta.get("smooth_edge:length", 0.0)
         return travel_lag(y, inputs.travel(), length, inputs.reset) if length > 0 else y
 
@@ -179,7 +190,7 @@ class PassageCapstan(PassageModel):
         """Fit the law and the blocks' parameters (:mod:`~tendon_id.zoo.passage.fitting`); returns ``self``."""
         from tendon_id.zoo.passage.fitting import calibrate_passage
 
-        inputs = PassageInputs.from_recordings(data)
+        inputs = data if isinstance(data, PassageInputs) else PassageInputs.from_recordings(data)
         for b in self.block_objects:
             b.check(inputs)
             missing = [r for r in b.requires if r not in self.blocks]

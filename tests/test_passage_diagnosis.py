@@ -1,0 +1,84 @@
+"""The diagnosis of a bench passage: splits by file, the passage blocks as candidates, the CLI with --mapping."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from passage_data import tendon_passage
+
+from tendon_id import zoo
+from tendon_id.cli import main
+from tendon_id.diagnosis import DiagnosisSettings, diagnose
+from tendon_id.diagnosis.passage import file_splits, passage_strata
+from tendon_id.errors import ConfigError
+from tendon_id.zoo.passage import PassageCapstan, PassageInputs
+
+SETTINGS = DiagnosisSettings(n_boot=200, block_s=2.0)
+
+
+def test_a_passage_with_stick_slip_is_diagnosed_as_stick_slip():
+    train, test = [tendon_passage(s, n=900) for s in (0, 1)], [tendon_passage(s, n=900) for s in (2, 3)]
+    res = diagnose(zoo.make("passage-capstan", warmup_s=0.5), train, test, settings=SETTINGS, progress=False)
+    top = res.candidates[0]
+    assert top.effect == "stick_slip" and top.significant
+    assert res.ladder[1].effects == ["base", "stick_slip"] and res.ladder[1].heldout_rmse < 0.55 * res.base_rmse
+    velocity = next(c for c in res.candidates if c.effect == "velocity_friction")
+    assert velocity.heldout_rmse > top.heldout_rmse
+    assert res.verdict.kind in ("explained", "partial") and res.verdict.effects[0] == "stick_slip"
+    assert res.skipped["smooth_edge"].startswith("refines stick_slip")
+    assert res.unit == "N" and "N m" not in res.summary()
+    js = res.to_dict()
+    assert js["unit"] == "N" and js["ladder"][0]["effects"] == ["base"]
+    kinds = {s.kind for s in res.where}
+    assert {"reversal", "load", "speed", "position", "start"} <= kinds
+
+
+def test_splits_are_by_file_and_strata_cover_every_frame():
+    recs = [tendon_passage(s, n=300) for s in range(4)]
+    splits, how = file_splits(recs, None, folds=2)
+    assert "by file" in how and len(splits) == 2
+    for s in splits:
+        assert set(s.train.trajectory).isdisjoint(s.test.trajectory)  # no file on both sides
+    with pytest.raises(ConfigError, match="two or more files"):
+        file_splits(recs[:1], None, folds=3)
+    inputs = PassageInputs.from_recordings(recs)
+    strata = dict((name, mask) for name, _, mask in passage_strata(inputs))
+    near, away = strata["near reversals"], strata["away from reversals"]
+    assert near.any() and away.any() and np.array_equal(near, ~away)
+
+
+def test_a_log_starts_on_the_edge_of_its_first_motion():
+    rec = tendon_passage(0, n=400)
+    inputs = PassageInputs.from_recordings(rec)
+    model = PassageCapstan(blocks=("stick_slip",))
+    first = inputs.first_motion(1e-9)
+    sigma = inputs.slip_state(1e-9)
+    assert first[0] == sigma[np.flatnonzero(sigma)[0]]
+    # The opposite motion: the log starts on the other edge.
+    back = PassageInputs.from_recordings(
+        type(rec)(rec.frame.assign(position=-rec.frame["position"], input=rec.frame["input"][::-1].values), rec.meta)
+    )
+    assert back.first_motion(1e-9)[0] == -first[0]
+    forward, reverse = model.edges(back, {"gain": 1.0, "phi": 0.3, "offset": 0.0})
+    y = model.reading(back, {"gain": 1.0, "phi": 0.3, "offset": 0.0})
+    assert y[0] == (forward[0] if back.first_motion(1e-9)[0] > 0 else reverse[0])
+
+
+def test_the_cli_diagnoses_bench_files_and_refuses_a_snake_effect(tmp_path, capsys):
+    paths = []
+    for s in range(4):
+        paths.append(tmp_path / f"run{s}.parquet")
+        tendon_passage(s, n=600).write(paths[-1])
+    args = ["diagnose", "--base", "passage-capstan", "--data", str(paths[0]), "--data", str(paths[1])]
+    args += ["--test", str(paths[2]), "--test", str(paths[3])]
+    code = main([*args, "--out", str(tmp_path / "d.html"), "--json", str(tmp_path / "d.json")])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    js = json.loads((tmp_path / "d.json").read_text())
+    assert js["unit"] == "N" and js["candidates"][0]["effect"] == "stick_slip"
+    assert "held-out files (2 for fitting, 2 held out)" in js["validation"]
+    code = main([*args, "--candidates", "bending_stiffness", "--out", str(tmp_path / "e.html")])
+    err = capsys.readouterr().err
+    assert code == 2 and "unknown candidate" in err and "stick_slip" in err
