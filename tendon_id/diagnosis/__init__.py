@@ -5,7 +5,8 @@
 >>> print(result.summary())                         # doctest: +SKIP
 """
 
-from tendon_id.diagnosis.core import candidate_names, check_base, diagnose
+from tendon_id.diagnosis.core import check_base, diagnose
+from tendon_id.diagnosis.library import candidate_names
 from tendon_id.diagnosis.oracle import oracle_block, oracle_blocks
 from tendon_id.diagnosis.result import VERDICT_KINDS, CandidateResult, DiagnosisResult, Rung, Verdict
 from tendon_id.diagnosis.settings import DiagnosisSettings

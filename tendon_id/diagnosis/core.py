@@ -26,7 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from tendon_id.data import Recording
-from tendon_id.diagnosis.library import Library
+from tendon_id.diagnosis.library import Library, candidate_names
 from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult, Rung
 from tendon_id.diagnosis.runner import Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
@@ -38,19 +38,6 @@ from tendon_id.errors import ConfigError
 from tendon_id.zoo.blocks import EFFECT_BLOCKS
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import as_recordings
-
-
-def candidate_names(spec: str | Sequence[str] | None, known=None) -> list[str]:
-    """Validated candidate effect names among ``known`` (default: every snake effect with a block), default all."""
-    known = EFFECT_BLOCKS if known is None else known
-    if spec is None:
-        return list(known)
-    names = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else [str(p) for p in spec]
-    names = [n for n in names if n]
-    unknown = [n for n in names if n not in known]
-    if unknown or not names:
-        raise ConfigError(f"unknown candidate effect(s) {unknown or names}; known: {', '.join(known)}")
-    return list(dict.fromkeys(names))
 
 
 def check_base(base) -> CapstanModel:

@@ -12,16 +12,33 @@ independent check on the ranking by refits.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from tendon_id.errors import ConfigError
+from tendon_id.zoo.blocks import EFFECT_BLOCKS
 
 #: STLSQ threshold on standardised coefficients: a column must move the standardised
 #: residual by 5 % of its spread per standard deviation to stay in the model.
 SPARSE_THRESHOLD = 0.05
 #: Subsampled points per residual-against-regressor plot.
 PLOT_POINTS = 3000
+
+
+def candidate_names(spec: str | Sequence[str] | None, known=None) -> list[str]:
+    """Validated candidate effect names among ``known`` (default: every snake effect with a block), default all."""
+    known = EFFECT_BLOCKS if known is None else known
+    if spec is None:
+        return list(known)
+    names = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else [str(p) for p in spec]
+    names = [n for n in names if n]
+    unknown = [n for n in names if n not in known]
+    if unknown or not names:
+        raise ConfigError(f"unknown candidate effect(s) {unknown or names}; known: {', '.join(known)}")
+    return list(dict.fromkeys(names))
 
 
 @dataclass(frozen=True)

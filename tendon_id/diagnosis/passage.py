@@ -26,8 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from friction_models import play_operator
-from tendon_id.diagnosis.core import candidate_names
-from tendon_id.diagnosis.library import Library
+from tendon_id.diagnosis.library import Library, candidate_names
 from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult, Rung
 from tendon_id.diagnosis.runner import Score, Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
