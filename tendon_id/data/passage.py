@@ -32,7 +32,7 @@ import pandas as pd
 
 from tendon_id.data import validation as rules
 from tendon_id.data.io import read_frame, write_frame
-from tendon_id.data.normalise import float_column
+from tendon_id.data.normalise import float_column, infer_sample_rate
 from tendon_id.errors import RecordingError
 
 __all__ = ["PASSAGE_KIND", "QUANTITIES", "PASSAGE_COLUMNS", "OPTIONAL_COLUMNS", "PassageRecording"]
@@ -95,8 +95,7 @@ class PassageRecording:
         self._frame = frame
         self._validate()
         if self._meta["sample_rate_hz"] is None:
-            steps = np.diff(self.time)[~self.trajectory_starts[1:]]
-            self._meta["sample_rate_hz"] = float(1.0 / np.median(steps)) if steps.size else 1.0
+            self._meta["sample_rate_hz"] = infer_sample_rate(frame)
 
     def _validate(self) -> None:
         f, src = self._frame, self._source

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from friction_models import play_operator
 from tendon_id.diagnosis.library import Library, candidate_names
+from tendon_id.diagnosis.refit import Fit
 from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult, Rung
 from tendon_id.diagnosis.runner import Score, Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
@@ -50,19 +51,6 @@ class PassageSplit:
 
     train: PassageInputs
     test: PassageInputs
-
-
-@dataclass(frozen=True)
-class PassageRefit:
-    """A structure refitted on one split: the model, and its training fit (:class:`PassageFit`)."""
-
-    model: PassageCapstan
-    fit: object
-
-    def bic(self) -> float:
-        """Bayesian information criterion of the training fit (Gaussian errors) [-]."""
-        n, k = self.fit.n_obs, len(self.fit.labels)
-        return float(n * np.log(max(self.fit.rmse, 1e-300) ** 2) + k * np.log(n))
 
 
 def file_splits(train: list, test: list | None, folds: int) -> tuple[list[PassageSplit], str]:
@@ -92,7 +80,10 @@ def _task(structure, train, test, start, max_nfev):
     model.theta_, model.quantity_, model.calibration_ = dict(fit.theta), train.quantity, fit.summary()
     e = model.target(test) - model.reading(test, model.theta_)
     e[test.since_start < float(model.warmup_s)] = np.nan
-    return PassageRefit(model, fit), e[:, None]
+    refitted = Fit(
+        model, fit.rmse**2 * fit.n_obs, fit.n_obs, len(fit.labels), fit.labels, fit.corr, fit.n_eval, fit.seconds
+    )
+    return refitted, e[:, None]
 
 
 def passage_strata(inputs: PassageInputs) -> list[tuple[str, str, NDArray]]:
@@ -131,15 +122,14 @@ def _eligible(names: list[str], chosen: Sequence[str]) -> list[str]:
     return [n for n in names if n not in chosen and all(r in chosen for r in PASSAGE_BLOCKS[n].requires)]
 
 
-def _at_bound(effect: str, fits: list[PassageRefit], rel: float = 1e-3) -> list[str]:
+def _at_bound(effect: str, fits: list[Fit], rel: float = 1e-3) -> list[str]:
     """Parameters of ``effect`` fitted onto the bound of their range that is not the neutral (effect-off) one."""
     block = PASSAGE_BLOCKS[effect]()
     out = []
     for p, neutral in block.neutral().items():
         label = f"{effect}:{p}"
         for f in fits:
-            k = f.fit.labels.index(label)
-            lo, hi, v = f.fit.lower[k], f.fit.upper[k], f.fit.theta[label]
+            (lo, hi), v = f.model.calibration_["bounds"][label], f.model.theta_[label]
             tol = rel * (hi - lo)
             if (abs(v - lo) <= tol and abs(neutral - lo) > tol) or (abs(v - hi) <= tol and abs(neutral - hi) > tol):
                 out.append(p)
@@ -247,7 +237,7 @@ def diagnose_passage(
                 significant=ci[0] > 0,
                 ic_delta=float(sum(f.bic() for f in sc.fits) - sum(f.bic() for f in base_score.fits)),
                 params=params,
-                confounded=tuple(_confounded(sc.fits[0].fit, effect, settings.confound_corr)),
+                confounded=tuple(_confounded(sc.fits[0], effect, settings.confound_corr)),
                 at_bound=at_bound,
             )
         )

@@ -40,10 +40,12 @@ class Fit:
 
     Attributes
     ----------
-    model : CapstanModel
-        Fitted: ``A_``, ``B_`` and ``block_values_`` set (save or predict with it).
+    model : CapstanModel or PassageCapstan
+        Fitted: ``A_``, ``B_`` and ``block_values_`` set, or a passage's ``theta_`` (save or
+        predict with it).
     sse : float
-        Squared log error on the training frames [-].
+        Squared error on the training frames (log error [-] for a snake's law, [N^2 m^2] or
+        [N^2] for a passage's).
     n_obs : int
         Residuals in the loss (frames times tendons).
     n_params : int
