@@ -11,6 +11,7 @@ from friction_models.bending_stiffness import SLACK_FLOOR_N, bending_loss, edges
 from friction_models.capstan import capstan_exponent, capstan_ratio
 from friction_models.contact_gate import hard_contact_gate, smooth_contact_gate
 from friction_models.guide_wear import guide_wear_factors
+from friction_models.maxwell_slip import maxwell_slip, maxwell_slip_output
 from friction_models.mu_laws import affine_cosine_mu, constant_mu, velocity_dependent_mu
 from friction_models.play_operator import PlayResult, play_operator, play_operator_edges, slip_state
 from friction_models.viscoelastic import viscoelastic_lag
@@ -26,6 +27,8 @@ __all__ = [
     "edges_with_loss",
     "guide_wear_factors",
     "hard_contact_gate",
+    "maxwell_slip",
+    "maxwell_slip_output",
     "play_operator",
     "play_operator_edges",
     "slip_state",

@@ -23,7 +23,7 @@ from tendon_id.extras import require_extra
 from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
 from tendon_id.zoo.capstan import TYINGS, CapstanModel
-from tendon_id.zoo.passage import PASSAGE_BLOCKS, PassageModel
+from tendon_id.zoo.passage import PASSAGE_BLOCKS, PassageCapstan, PassageModel
 from tendon_id.zoo.registry import names as model_names
 from tendon_id.zoo.registry import names_of
 
@@ -175,19 +175,30 @@ def evaluate(
 def calibrate(
     data: list[Path] = typer.Option(None, "--data", help="Recording(s) with terminal labels; repeat for several."),
     model: str = typer.Option(
-        "capstan-nonsmooth", "--model", help=f"A capstan-family model: {_one_of(names_of(CapstanModel))}."
+        "capstan-nonsmooth",
+        "--model",
+        help=f"A capstan-family model ({_one_of(names_of(CapstanModel))}), or passage-capstan for a bench's files.",
     ),
-    tying: str = typer.Option("tied", "--tying", help=f"{_one_of(TYINGS)}."),
+    tying: Optional[str] = typer.Option(None, "--tying", help=f"{_one_of(TYINGS)} (capstan family; default tied)."),
+    blocks: Optional[str] = typer.Option(
+        None, "--blocks", help=f"passage-capstan's effect blocks, comma-separated ({', '.join(PASSAGE_BLOCKS)})."
+    ),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
     posterior: bool = typer.Option(False, "--posterior", help="Also sample the emcee posterior."),
     out: Path = typer.Option(..., "--out", help="Output folder: calibration.json (+ posterior.json, corner.png)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the multi-start and of the sampler."),
 ) -> None:
-    """Constrained calibration of (A_i, B_i) with nlopt, and optionally their posterior with emcee."""
+    """Constrained calibration with nlopt (the law, or a passage's law and blocks), optionally its emcee posterior."""
     if posterior:
         require_extra("posterior", "--posterior (its corner plot)")
     from tendon_id.calibration_report import run_calibration
 
-    written = run_calibration(_read_all(data), model=model, tying=tying, posterior=posterior, out=out, seed=seed)
+    names = [b.strip() for b in (blocks or "").split(",") if b.strip()]
+    PassageCapstan(blocks=names).block_objects  # an unknown or repeated block fails before the data is read
+    recs = _read_all(data, mapping)
+    written = run_calibration(
+        recs, model=model, tying=tying, blocks=names, posterior=posterior, out=out, seed=seed, report=typer.echo
+    )
     for path in written:
         typer.echo(f"wrote {path}")
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +21,8 @@ with warnings.catch_warnings():
     # us that day, and there is nothing our users can do about it.  Only that message is silenced.
     warnings.filterwarnings("ignore", message=r"\s*ArviZ is undergoing a major refactor", category=FutureWarning)
     import arviz as az
+
+from tendon_id.progress import progress_bar
 
 
 def inference_data(names: Sequence[str], chain: NDArray) -> az.InferenceData:
@@ -40,3 +43,106 @@ def ess_rhat(names: Sequence[str], chain: NDArray) -> tuple[NDArray[np.float64],
     ess = np.array([float(az.ess(idata, var_names=[n])[n].values) for n in names])
     rhat = np.array([float(az.rhat(idata, var_names=[n])[n].values) for n in names])
     return ess, rhat
+
+
+@dataclass
+class Chains:
+    """An emcee chain and its diagnostics: what every posterior of tendon-id returns.
+
+    Attributes
+    ----------
+    names : list of str
+        Parameter names, one per last-axis entry of ``chain``.
+    chain : ndarray, shape (steps, walkers, params)
+        Chain after burn-in.
+    tau : ndarray, shape (params,)
+        Integrated autocorrelation time of the sampled coordinates [steps].
+    ess, rhat : ndarray, shape (params,)
+        ArviZ bulk effective sample size and split R-hat (walkers as chains).
+    acceptance : float
+        Mean acceptance fraction.
+    seconds : float
+        Wall time of the sampling [s].
+    map_theta : ndarray
+        The calibrated point the walkers started from.
+    """
+
+    names: list
+    chain: NDArray
+    tau: NDArray
+    ess: NDArray
+    rhat: NDArray
+    acceptance: float
+    seconds: float
+    map_theta: NDArray
+
+    @property
+    def samples(self) -> NDArray:
+        """Flattened draws, shape (draws, params)."""
+        return self.chain.reshape(-1, self.chain.shape[-1])
+
+    def summary(self) -> dict:
+        """``{name: {"mean", "sd", "q2.5", "q97.5", "ess", "rhat"}}`` (DESIGN §10)."""
+        return chain_summary(self.names, self.chain)
+
+    def to_arviz(self) -> az.InferenceData:
+        """An ``arviz.InferenceData`` with one chain per walker."""
+        return inference_data(self.names, self.chain)
+
+
+def chain_summary(names: Sequence[str], chain: NDArray) -> dict:
+    """``{name: {"mean", "sd", "q2.5", "q97.5", "ess", "rhat"}}`` of ``chain`` (steps, walkers, params) (DESIGN §10)."""
+    s = chain.reshape(-1, chain.shape[-1])
+    q = np.percentile(s, [2.5, 97.5], axis=0)
+    ess, rhat = ess_rhat(names, chain)
+    return {
+        n: {
+            "mean": float(s[:, k].mean()),
+            "sd": float(s[:, k].std(ddof=1)),
+            "q2.5": float(q[0, k]),
+            "q97.5": float(q[1, k]),
+            "ess": float(ess[k]),
+            "rhat": float(rhat[k]),
+        }
+        for k, n in enumerate(names)
+    }
+
+
+def corner_figure(samples: NDArray, labels: Sequence[str], truths: Sequence[float] | None = None):
+    """Corner plot of ``samples`` (draws, params) with 2.5/50/97.5 % quantiles (``corner`` package)."""
+    # corner is the optional ``posterior`` extra, and the Agg backend is process-wide: both on use.
+    import corner
+    import matplotlib
+
+    matplotlib.use("Agg")
+    return corner.corner(samples, labels=list(labels), truths=truths, quantiles=[0.025, 0.5, 0.975])
+
+
+def run_to_convergence(
+    sampler, start: NDArray, *, target_ess: float, max_steps: int, chunk: int, progress: bool | None, desc="emcee"
+) -> tuple[NDArray, NDArray]:
+    """Run an ``emcee.EnsembleSampler`` from ``start`` until its chain is long and mixed enough.
+
+    Sampling goes on in chunks of ``chunk`` steps until the chain is longer than 50 times the
+    largest integrated autocorrelation time ``tau`` (Goodman & Weare 2010; emcee's
+    ``get_autocorr_time``) and ``walkers (steps - burn) / tau`` reaches ``target_ess``, or
+    ``max_steps`` is spent. The burn-in is ``2 tau``, at most half the chain.
+
+    Returns
+    -------
+    chain : ndarray, shape (steps - burn, walkers, params)
+    tau : ndarray, shape (params,)
+        [steps].
+    """
+    steps, state = 0, start
+    n_walkers = start.shape[0]
+    tau = np.full(start.shape[1], np.inf)
+    for _ in progress_bar(range(max(max_steps // chunk, 1)), desc=desc, enable=progress):
+        state = sampler.run_mcmc(state, chunk, progress=False)
+        steps += chunk
+        tau = sampler.get_autocorr_time(tol=0)
+        burn = int(np.ceil(2 * np.max(tau)))
+        if steps > 50 * np.max(tau) and n_walkers * (steps - burn) / np.max(tau) >= target_ess:
+            break
+    burn = min(int(np.ceil(2 * np.max(tau))), steps // 2)
+    return sampler.get_chain(discard=burn), np.asarray(tau, dtype=float)

@@ -45,9 +45,8 @@ from tendon_id.data import Recording
 from tendon_id.encoder import encoder_covariance
 from tendon_id.errors import ConfigError
 from tendon_id.law_layout import LawLayout
-from tendon_id.mcmc import ess_rhat, inference_data
+from tendon_id.mcmc import Chains, corner_figure, ess_rhat, run_to_convergence
 from tendon_id.problem import LawProblem
-from tendon_id.progress import progress_bar
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import as_recordings
 
@@ -66,62 +65,23 @@ def parameter_names(model: CapstanModel) -> list[str]:
 
 
 @dataclass
-class PosteriorResult:
-    """Samples and diagnostics of :func:`sample_posterior`.
+class PosteriorResult(Chains):
+    """Samples and diagnostics of :func:`sample_posterior` (the fields of :class:`~tendon_id.mcmc.Chains`).
+
+    ``names`` are those of :func:`parameter_names`; ``log_sigma_i`` is the natural log of tendon
+    ``i``'s load-cell noise in N. ``tau`` is per sampled coordinate ``(mu0, r)`` per group, then
+    ``log_sigma``.
 
     Attributes
     ----------
-    names : list of str
-        Parameter names (see :func:`parameter_names`); ``log_sigma_i`` is the
-        natural log of tendon ``i``'s load-cell noise in N.
-    chain : ndarray, shape (steps, walkers, params)
-        Chain after burn-in.
-    tau : ndarray, shape (params,)
-        Integrated autocorrelation time per sampled coordinate ``(mu0, r)`` per group, then
-        ``log_sigma`` [steps].
-    ess, rhat : ndarray, shape (params,)
-        ArviZ bulk effective sample size and split R-hat (walkers as chains).
-    acceptance : float
-        Mean acceptance fraction.
-    seconds : float
-        Wall time of the sampling.
-    map_theta : ndarray
-        The calibrated point the walkers started from.
+    layout : LawLayout
+        The law's parameter layout.
     encoder_cov : ndarray or None
         Law covariance from encoder quantisation, shape (3, p, p), convolved into ``chain``.
     """
 
-    names: list[str]
-    chain: NDArray[np.float64]
-    tau: NDArray[np.float64]
-    ess: NDArray[np.float64]
-    rhat: NDArray[np.float64]
-    acceptance: float
-    seconds: float
-    map_theta: NDArray[np.float64]
     layout: LawLayout = field(repr=False, default=None)
     encoder_cov: NDArray | None = field(repr=False, default=None)
-
-    @property
-    def samples(self) -> NDArray[np.float64]:
-        """Flattened draws, shape (draws, params)."""
-        return self.chain.reshape(-1, self.chain.shape[-1])
-
-    def summary(self) -> dict:
-        """``{name: {"mean", "sd", "q2.5", "q97.5", "ess", "rhat"}}`` (DESIGN §10)."""
-        s = self.samples
-        q = np.percentile(s, [2.5, 97.5], axis=0)
-        return {
-            n: {
-                "mean": float(s[:, k].mean()),
-                "sd": float(s[:, k].std(ddof=1)),
-                "q2.5": float(q[0, k]),
-                "q97.5": float(q[1, k]),
-                "ess": float(self.ess[k]),
-                "rhat": float(self.rhat[k]),
-            }
-            for k, n in enumerate(self.names)
-        }
 
     def law_samples(self) -> tuple[NDArray, NDArray]:
         """Draws of ``A`` and ``B``, each shape (draws, G, 3)."""
@@ -139,23 +99,13 @@ class PosteriorResult:
         A, B = self.law_samples()
         return A + B
 
-    def to_arviz(self):
-        """An ``arviz.InferenceData`` with one chain per walker."""
-        return inference_data(self.names, self.chain)
-
     def corner(self, truths: Sequence[float] | None = None):
         """Corner plot of the law parameters (``corner`` package); returns the figure."""
-        # corner is the optional ``posterior`` extra, and the Agg backend is process-wide: both on use.
-        import corner
-        import matplotlib
-
-        matplotlib.use("Agg")
         keep = [k for k, n in enumerate(self.names) if not n.startswith("log_sigma")]
-        return corner.corner(
+        return corner_figure(
             self.samples[:, keep],
-            labels=[self.names[k] for k in keep],
-            truths=None if truths is None else [truths[k] for k in keep],
-            quantiles=[0.025, 0.5, 0.975],
+            [self.names[k] for k in keep],
+            None if truths is None else [truths[k] for k in keep],
         )
 
     def predictive_bands(
@@ -314,20 +264,9 @@ def sample_posterior(
     sampler = emcee.EnsembleSampler(n_walkers, ndim, log_prob, vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()  # the same seed gives the same chain
     t0 = time.perf_counter()
-    state = start
-    steps = 0
-    tau = np.full(ndim, np.inf)
-    bar = progress_bar(range(max_steps // chunk), desc="emcee", enable=progress)
-    for _ in bar:
-        state = sampler.run_mcmc(state, chunk, progress=False)
-        steps += chunk
-        tau = sampler.get_autocorr_time(tol=0)
-        burn = int(np.ceil(2 * np.max(tau)))
-        ess_est = n_walkers * (steps - burn) / np.max(tau)
-        if steps > 50 * np.max(tau) and ess_est >= target_ess:
-            break
-    burn = min(int(np.ceil(2 * np.max(tau))), steps // 2)
-    z_chain = sampler.get_chain(discard=burn)
+    z_chain, tau = run_to_convergence(
+        sampler, start, target_ess=target_ess, max_steps=max_steps, chunk=chunk, progress=progress
+    )
     chain = to_theta(z_chain.reshape(-1, ndim)).reshape(z_chain.shape)
     encoder_cov = None
     if encoder_bits:
@@ -350,7 +289,7 @@ def sample_posterior(
     return PosteriorResult(
         names=names,
         chain=chain,
-        tau=np.asarray(tau, dtype=float),
+        tau=tau,
         ess=ess,
         rhat=rhat,
         acceptance=float(np.mean(sampler.acceptance_fraction)),

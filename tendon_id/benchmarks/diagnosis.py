@@ -13,8 +13,7 @@ from collections import Counter
 
 import numpy as np
 
-from tendon_id.benchmarks.withheld import BASE_FOR, MAGNITUDES, OUT_OF_LIBRARY, Case, case_data, case_recipe
-from tendon_id.sim.effects import EFFECT_NAMES
+from tendon_id.benchmarks.withheld import BASE_FOR, LIBRARY, MAGNITUDES, OUT_OF_LIBRARY, Case, case_data, case_recipe
 
 #: Effects without a magnitude knob: the nonsmooth capstan's stick band is the friction itself.
 NO_MAGNITUDE = ("stick_slip",)
@@ -35,7 +34,7 @@ def benchmark_cases(quick: bool = False, seed: int = 0) -> list[Case]:
     seeds = [seed + s for s in range(size["seeds"])]
     frames = size["frames"]
     out = []
-    for effect in EFFECT_NAMES:
+    for effect in LIBRARY:
         mags = ["default"] if quick or effect in NO_MAGNITUDE else list(MAGNITUDES)
         out += [Case("single", (effect,), m, s, frames) for m in mags for s in seeds]
     out += [Case("null", (), "default", seed + s, frames) for s in range(size["null_seeds"])]
@@ -48,7 +47,7 @@ def benchmark_cases(quick: bool = False, seed: int = 0) -> list[Case]:
 def run_case(case: Case) -> dict:
     """Simulate, calibrate the base, diagnose, and refit the oracle structure of one case."""
     from tendon_id import zoo
-    from tendon_id.diagnosis import diagnose, oracle_blocks
+    from tendon_id.diagnosis import diagnose, oracle_block
     from tendon_id.diagnosis.refit import refit
     from tendon_id.diagnosis.runner import heldout_residual
 
@@ -74,7 +73,8 @@ def run_case(case: Case) -> dict:
     }
     lib = tuple(e for e in case.truth if e not in OUT_OF_LIBRARY)
     if lib:
-        truth_blocks = oracle_blocks(case_recipe(case).effects.with_enabled(lib))
+        truth = case_recipe(case).effects
+        truth_blocks = tuple(oracle_block(e, truth) for e in LIBRARY if e in lib)  # in the simulator's order
         structure = base.with_blocks(*truth_blocks)
         inputs = base.inputs(train)
         fit = refit(structure, inputs, base.A_, base.B_, structure.block_params())
@@ -114,7 +114,7 @@ def _detectable(result, e_base, e_oracle, rate_hz: float, structural: bool) -> b
 
 def summarise(rows: list[dict]) -> dict:
     """Confusion matrix, top-1 per magnitude, false alarms, out-of-library naming, pairs, shrinkage error."""
-    library = list(EFFECT_NAMES)
+    library = list(LIBRARY)
     columns = library + ["none", "unexplained"]
     confusion: dict[str, Counter] = {}
     for r in rows:

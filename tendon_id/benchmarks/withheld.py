@@ -3,7 +3,10 @@
 A case's truth is the base model's structure (the capstan law, plus contact and
 stick/slip for ``capstan-nonsmooth``) and one or two effects the base leaves out, each at
 a magnitude: half, default or double its documented default (DESIGN §5, the settings of
-:mod:`tendon_id.sim.effects`).  Null cases withhold nothing.  Out-of-library cases withhold
+:mod:`tendon_id.sim.effects`).  The smooth edge of the stick/slip band (``smooth_edge``, the
+option ``stick_slip.edge = "smooth"``) is withheld as an effect of its own: its truth is the
+nonsmooth capstan with a smooth edge, its base ``capstan-nonsmooth`` (a sharp edge), and its
+magnitude scales the edge's width.  Null cases withhold nothing.  Out-of-library cases withhold
 physics no candidate block offers: a transport delay of the terminal load cell, and a
 Stribeck dip of friction with speed.  The robot and the protocols (:data:`PROTOCOLS`) are ``snake12-paper``'s;
 the friction law is ``snake12-noise-only``'s, a feasible one (``B >= |A|``, DESIGN §7), since
@@ -21,7 +24,7 @@ import numpy as np
 
 from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
-from tendon_id.sim import Effects, simulate
+from tendon_id.sim import EFFECT_NAMES, EFFECT_OPTIONS, EFFECT_TYPES, Effects, simulate
 
 #: The base each withheld effect is diagnosed against: the paper's baseline, unless the effect is part of it.
 BASE_FOR = {"contact": "capstan-simple", "stick_slip": "capstan-contact"}
@@ -29,6 +32,9 @@ DEFAULT_BASE = "capstan-nonsmooth"
 #: The simulator effects of each base's structure.
 BASE_EFFECTS = {"capstan-simple": (), "capstan-contact": ("contact",), "capstan-nonsmooth": ("contact", "stick_slip")}
 MAGNITUDES = {"half": 0.5, "default": 1.0, "double": 2.0}
+#: The effects a case may withhold that a candidate block models: the simulator's effects and
+#: the options the diagnosis names as effects of their own (``smooth_edge``).
+LIBRARY = EFFECT_NAMES + tuple(EFFECT_OPTIONS)
 #: Out-of-library effects (no candidate block models them).
 OUT_OF_LIBRARY = ("sensor_delay", "stribeck_dip")
 #: Transport delay of the terminal load cell's reading at default magnitude [s].
@@ -95,7 +101,7 @@ def _scaled_effects(names: tuple[str, ...], scale: float) -> dict:
     d = Effects()
     params: dict = {}
     for name in names:
-        p = d.get(name)
+        p = d.get(name) if name in EFFECT_TYPES else None
         if name == "viscoelastic":
             params[name] = {"tau_v": p.tau_v, "kappa": p.kappa * scale}
         elif name == "velocity_friction":
@@ -106,6 +112,8 @@ def _scaled_effects(names: tuple[str, ...], scale: float) -> dict:
             params[name] = {"guides": {k: 1.0 + (w - 1.0) * scale for k, w in p.guides.items()}}
         elif name == "sensor_bias":
             params[name] = {"offset": p.offset * scale, "gain": p.gain * scale, "drift": p.drift * scale}
+        elif name == "smooth_edge":  # magnitude: the edge's width, a fraction of the stick band
+            params["stick_slip"] = {"edge": "smooth", "edge_width": d.get("stick_slip").edge_width * scale}
     return params
 
 
@@ -114,7 +122,7 @@ def case_recipe(case: Case):
     recipe = load_recipe("snake12-noise-only")
     scale = MAGNITUDES[case.magnitude]
     lib = tuple(e for e in case.truth if e not in OUT_OF_LIBRARY)
-    enabled = BASE_EFFECTS[case.base] + lib
+    enabled = BASE_EFFECTS[case.base] + tuple(e for e in lib if e in EFFECT_TYPES)  # an option is a setting
     params = _scaled_effects(lib, scale)
     robot = recipe.robot
     if "contact" in lib:  # magnitude: the clearance beyond the routing wrap

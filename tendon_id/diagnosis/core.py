@@ -133,10 +133,18 @@ def diagnose(
     )
     floor = floor_sim.rmse
 
-    # Candidates: localised on all training data with the base fit, then refitted per split.
+    # Candidates: localised on all training data with the base fit, then refitted per split.  One that
+    # refines an effect the base lacks (smooth_edge of stick_slip) waits for the ladder to add it.
     full_train = splits[0].train if test_recs is not None else heldout  # CV: the held-out folds are all of it
     resid_train = full_train.terminal - base.terminal_reading(full_train, *start)
-    blocks = {n: EFFECT_BLOCKS[n].localise(base, full_train, *start, resid_train) for n in names}
+    later = [n for n in names if not eligible(n, in_base)]
+    skipped.update(
+        {n: f"refines {', '.join(EFFECT_BLOCKS[n].requires)}: tried on the ladder once that is in" for n in later}
+    )
+    all_blocks = {n: EFFECT_BLOCKS[n].localise(base, full_train, *start, resid_train) for n in names if n not in later}
+    all_blocks.update({n: EFFECT_BLOCKS[n]() for n in later})
+    names = [n for n in names if n not in later]
+    blocks = {n: all_blocks[n] for n in names}
     structures = [base.with_blocks(b) for b in blocks.values()]
     starts = [[(f.model.A_, f.model.B_, f.model.block_params_) for f in base_score.fits] for _ in structures]
     scores = scorer.score(structures, starts, "refit candidates")
@@ -181,13 +189,19 @@ def diagnose(
         chosen, current, current_score = [first], structures[order[0]], scores[order[0]]
         ladder.append(Rung(["base", first], ranked[0].heldout_rmse, ranked[0].gap_closed, ranked[0].improvement_ci))
         while len(chosen) < settings.max_rungs:
+            have = in_base | {all_blocks[e].effect for e in chosen}
             remaining = [c.effect for c in ranked if c.effect not in chosen]
-            trial = _screen(current_score, splits[0].train, remaining, blocks)[: settings.ladder_width]
+            remaining += [n for n in later if n not in chosen and eligible(n, have)]
+            trial = _screen(current_score, splits[0].train, remaining, all_blocks)[: settings.ladder_width]
             if not trial:
                 break
-            trial_structs = [current.with_blocks(blocks[e]) for e in trial]
+            trial_structs = [current.with_blocks(all_blocks[e]) for e in trial]
             trial_starts = [
-                [_merge(cf.model, by_effect[e].fits[k].model) for k, cf in enumerate(current_score.fits)] for e in trial
+                [
+                    _merge(cf.model, by_effect[e].fits[k].model if e in by_effect else None)
+                    for k, cf in enumerate(current_score.fits)
+                ]
+                for e in trial
             ]
             trial_scores = scorer.score(trial_structs, trial_starts, f"ladder rung {len(chosen) + 1}")
             best = int(np.argmin([np.nanmean(s.residual**2) for s in trial_scores]))
@@ -283,7 +297,13 @@ def _at_bound(block, fits, rel: float = 1e-3) -> list[str]:
 
 
 def _merge(current, single) -> tuple:
-    """Start of a ladder refit: the current rung's fit, and the candidate's own fitted block values."""
+    """Start of a ladder refit: the current rung's fit, and the candidate's own fitted block values, if any."""
     values = dict(current.block_params_)
-    values.update({k: v for k, v in single.block_params_.items() if k not in values})
+    if single is not None:
+        values.update({k: v for k, v in single.block_params_.items() if k not in values})
     return current.A_, current.B_, values
+
+
+def eligible(effect: str, present: set) -> bool:
+    """Whether candidate ``effect`` can be added to a model with the effects ``present`` (what it refines is in)."""
+    return all(r in present for r in EFFECT_BLOCKS[effect].requires)

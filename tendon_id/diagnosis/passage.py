@@ -275,13 +275,14 @@ def diagnose_passage(
             ci = scorer.improvement_ci(
                 current_score.residual, trial_scores[best].residual, block, 1 - 2 * settings.alpha / len(trial), rng
             )
-            if not ci[0] > 0:
+            mse = float(np.nanmean(trial_scores[best].residual ** 2))
+            gain = gap_closed(mse0, mse, floor) - ladder[-1].gap_closed
+            if not (ci[0] > 0 and gain >= settings.min_rung_gain):
                 break
             chosen.append(trial[best])
             current_score = trial_scores[best]
             if _at_bound(trial[best], current_score.fits):
                 strained.add(trial[best])
-            mse = float(np.nanmean(current_score.residual**2))
             ladder.append(Rung(["base", *chosen], float(np.sqrt(mse)), gap_closed(mse0, mse, floor), ci))
     excess_ci = scorer.excess_ci(e0, floor, block, 1 - 2 * settings.alpha, rng)
     structural = {n for n in PASSAGE_BLOCKS if not PASSAGE_BLOCKS[n].param_names}

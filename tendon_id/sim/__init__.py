@@ -5,7 +5,7 @@ unmodelled effects), never a curve chosen to flatter a model.
 """
 
 from tendon_id.sim.actuation import Actuation
-from tendon_id.sim.effects import EFFECT_NAMES, EFFECT_TYPES, Effects, parse_effect_names
+from tendon_id.sim.effects import EFFECT_NAMES, EFFECT_OPTIONS, EFFECT_TYPES, Effects, parse_effect_names
 from tendon_id.sim.protocols import PAPER_FRAMES, PROTOCOL_NAMES, ProtocolSettings
 from tendon_id.sim.recipe import Recipe
 from tendon_id.sim.sensors import Sensors
@@ -14,6 +14,7 @@ from tendon_id.sim.transmission import FrictionLaw, TransmissionResult, transmit
 
 __all__ = [
     "EFFECT_NAMES",
+    "EFFECT_OPTIONS",
     "EFFECT_TYPES",
     "PAPER_FRAMES",
     "PROTOCOL_NAMES",

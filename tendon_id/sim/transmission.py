@@ -6,7 +6,8 @@ distal.  Through guide ``k`` the capstan exponent is
     phi = w_k * mu_i(alpha, v) * beta * alpha          (paper Eqs. (4)-(6))
 
 and the log tension either drops by ``phi`` (forward slip) or, with
-``stick_slip``, follows the play operator of the nonsmooth capstan.
+``stick_slip``, follows the play operator of the nonsmooth capstan (with a smooth edge,
+``stick_slip.edge = "smooth"``: a sum of play operators of several widths).
 Everything is vectorised over frames, sets and tendons; the only Python loop
 runs over the ``N - 1`` guides, because guide ``k + 1`` is fed by guide ``k``.
 """
@@ -24,6 +25,7 @@ from friction_models import (
     edges_with_loss,
     guide_wear_factors,
     hard_contact_gate,
+    maxwell_slip_output,
     play_operator_edges,
     slip_state,
     velocity_dependent_mu,
@@ -155,6 +157,7 @@ def transmit(
         bend_abs = np.abs(projected_bend(theta, psi))  # (T, N joints, N sets, 3)
     stick_slip = "stick_slip" in effects
     slide = effects.get("stick_slip") if stick_slip and effects.get("stick_slip").driver == "motion" else None
+    edge_width = effects.get("stick_slip").smooth_width if stick_slip else 0.0  # 0: the sharp play operator
     if "velocity_friction" in effects or slide is not None:
         cum_rate = backward_rate(np.cumsum(theta, axis=1), reset, dt)  # d/dt of sum_{m<=j} theta_m
     vf = effects.get("velocity_friction") if "velocity_friction" in effects else None
@@ -204,8 +207,13 @@ def transmit(
             # its step map is the constant map onto that edge (forward: lo, reverse: hi).
             v = path_rate_at(cum_rate, g, psi, geometry.hole_radius)
             fwd, rev = v < -slide.slide_threshold, v > slide.slide_threshold
-            y = play_operator_edges(np.where(rev, hi, lo), np.where(fwd, lo, hi), reset).log_out
-            sig = slip_state(y, lo, hi)
+            if edge_width > 0:  # every element of the contact slides with the tendon
+                y, sig = maxwell_slip_output(lo, hi, reset, edge_width, sliding=fwd.astype(int) - rev.astype(int))
+            else:
+                y = play_operator_edges(np.where(rev, hi, lo), np.where(fwd, lo, hi), reset).log_out
+                sig = slip_state(y, lo, hi)
+        elif edge_width > 0:  # the smooth edge: the contact's elements slip one after another
+            y, sig = maxwell_slip_output(lo, hi, reset, edge_width)
         elif stick_slip:
             res = play_operator_edges(lo, hi, reset)
             y, sig = res.log_out, res.sigma

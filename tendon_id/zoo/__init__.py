@@ -18,6 +18,7 @@ from tendon_id.zoo.blocks import (
     Hysteresis,
     PerTendonWrap,
     SensorBias,
+    SmoothEdge,
     VelocityFriction,
     ViscoelasticLag,
 )
@@ -40,6 +41,7 @@ __all__ = [
     "PerTendonWrap",
     "ProximalModel",
     "SensorBias",
+    "SmoothEdge",
     "TransmissionInputs",
     "TransmissionModel",
     "VelocityFriction",

@@ -116,8 +116,16 @@ class CapstanModel(TransmissionModel):
         if not float(self.warmup_s) >= 0:
             raise ConfigError(f"warmup_s must be a non-negative time in s, got {self.warmup_s!r}")
         blocks = tuple(as_block(b) for b in self.blocks)
-        if sum(b.stage == "propagate" for b in blocks) > 1:
-            raise ConfigError("a model can have at most one propagation block (hysteresis)")
+        effects = {b.effect for b in blocks}
+        for b in blocks:
+            missing = [r for r in b.requires if r not in effects]
+            if missing:
+                raise ConfigError(f"the {b.name} block refines {', '.join(missing)}: add that effect's block too")
+        if (
+            sum(b.stage == "propagate" and not b.requires for b in blocks) > 1
+            or sum(b.stage == "propagate" and bool(b.requires) for b in blocks) > 1
+        ):
+            raise ConfigError("a model can have at most one propagation block (hysteresis), and one that refines it")
         if sum(b.stage == "wrap" for b in blocks) > 1:
             raise ConfigError("a model can have at most one wrap block")
         names = [b.name for b in blocks]

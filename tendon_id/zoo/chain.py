@@ -92,7 +92,7 @@ def propagate_chain(
     if keep_chain:
         chain[:, 0] = log_t
     edges = [b for b in blocks if b.stage == "edges"]
-    prop = next((b for b in blocks if b.stage == "propagate"), None)
+    prop = step_block(blocks)
     outputs = [b for b in blocks if b.stage == "guide_output"]
     for g in range(n - 1):
         active = sets > g  # set j (index j-1) passes guide k = g + 1 iff k < j
@@ -118,6 +118,12 @@ def propagate_chain(
         if keep_chain:
             chain[:, g + 1, active] = y
     return chain if keep_chain else log_t
+
+
+def step_block(blocks: Sequence[Block]) -> Block | None:
+    """The ``propagate`` block that sets a guide's step: one that refines another (a smooth edge), else the only one."""
+    props = [b for b in blocks if b.stage == "propagate"]
+    return next((b for b in props if b.requires), props[0] if props else None)
 
 
 def apply_sensor(blocks: Sequence[Block], tension: NDArray, ctx: Passage, values: dict) -> NDArray:

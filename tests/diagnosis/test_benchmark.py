@@ -3,13 +3,12 @@
 import pytest
 
 from tendon_id.benchmarks.diagnosis import benchmark_cases, run_cases, summarise
-from tendon_id.benchmarks.withheld import Case, case_recipe
-from tendon_id.sim.effects import EFFECT_NAMES
+from tendon_id.benchmarks.withheld import LIBRARY, Case, case_recipe
 
 
 def test_quick_and_full_cases_cover_every_kind():
     quick = benchmark_cases(quick=True)
-    assert {c.truth[0] for c in quick if c.kind == "single"} == set(EFFECT_NAMES)
+    assert {c.truth[0] for c in quick if c.kind == "single"} == set(LIBRARY)  # every effect, and the smooth edge
     assert {c.kind for c in quick} == {"single", "null", "out-of-library", "pair"}
     full = benchmark_cases()
     singles = [c for c in full if c.kind == "single"]

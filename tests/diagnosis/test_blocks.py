@@ -9,7 +9,7 @@ import pytest
 from tendon_id.datasets import load_recipe
 from tendon_id.diagnosis import oracle_blocks
 from tendon_id.sim import Effects, Sensors, simulate
-from tendon_id.sim.effects import EFFECT_NAMES
+from tendon_id.sim.effects import EFFECT_NAMES, EFFECT_OPTIONS
 from tendon_id.zoo import load_model
 from tendon_id.zoo.blocks import BLOCK_TYPES, EFFECT_BLOCKS, STAGES, Block, GuideWear, as_block, block_from_dict
 from tendon_id.zoo.capstan import CapstanModel
@@ -23,17 +23,21 @@ TRUE_LAW = (np.array([RECIPE.friction.A]), np.array([RECIPE.friction.B]))
 
 
 def test_every_simulator_effect_has_its_block():
-    assert set(EFFECT_BLOCKS) == set(EFFECT_NAMES)
+    assert set(EFFECT_BLOCKS) == set(EFFECT_NAMES) | set(EFFECT_OPTIONS)  # and each option named as an effect
     for effect, cls in EFFECT_BLOCKS.items():
         assert cls.effect == effect
         assert as_block(effect).name == cls.name  # the effect's name builds its block
 
 
-@pytest.mark.parametrize("effect", EFFECT_NAMES + ("all",))
+@pytest.mark.parametrize("effect", EFFECT_NAMES + ("smooth_edge", "all"))
 def test_block_at_true_settings_is_the_simulator(effect):
     names = EFFECT_NAMES if effect == "all" else (effect,)
-    rec = simulate(RECIPE, "planned-paths", frames=400, effects=",".join(names), seed=5).recording
-    model = CapstanModel(blocks=oracle_blocks(RECIPE.effects.with_enabled(names)))
+    effects = RECIPE.effects.with_enabled(names) if effect != "smooth_edge" else None
+    if effect == "smooth_edge":  # an option of stick_slip, at its default (bench) width
+        stick_slip = dataclasses.replace(RECIPE.effects.get("stick_slip"), edge="smooth")
+        effects = Effects(enabled=("stick_slip",), params={**RECIPE.effects.params, "stick_slip": stick_slip})
+    rec = simulate(dataclasses.replace(RECIPE, effects=effects), "planned-paths", frames=400, seed=5).recording
+    model = CapstanModel(blocks=oracle_blocks(effects))
     pred = model.terminal_reading(TransmissionInputs.from_recordings(rec), *TRUE_LAW)
     plain = CapstanModel().terminal_reading(TransmissionInputs.from_recordings(rec), *TRUE_LAW)
     # The rate of 24-bit angles is the only approximation (sliding speed); everything else is exact.
@@ -90,7 +94,8 @@ def test_signature_columns_are_the_effect_on_the_reading():
         if effect == "contact":
             continue
         block = GuideWear(guides=(3,)) if cls is GuideWear else cls()
-        cols = block.signature(base, inputs, *TRUE_LAW, base.block_params())
+        model = base.with_blocks("hysteresis") if cls.requires else base  # a smooth edge refines stick/slip
+        cols = block.signature(model, inputs, *TRUE_LAW, model.block_params())
         assert cols, effect
         for label, col in cols.items():
             assert col.shape == (300, 3)

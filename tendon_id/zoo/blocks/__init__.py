@@ -12,7 +12,7 @@ from tendon_id.errors import ConfigError
 from tendon_id.zoo.blocks.base import BLOCK_TYPES, EFFECT_BLOCKS, STAGES, Block, Passage
 from tendon_id.zoo.blocks.exponent import ContactGate, GuideWear, VelocityFriction
 from tendon_id.zoo.blocks.output import SensorBias, ViscoelasticLag
-from tendon_id.zoo.blocks.slip import BendingStiffness, Hysteresis
+from tendon_id.zoo.blocks.slip import BendingStiffness, Hysteresis, SmoothEdge
 from tendon_id.zoo.blocks.wrap import PerTendonWrap
 
 __all__ = [
@@ -27,6 +27,7 @@ __all__ = [
     "Passage",
     "PerTendonWrap",
     "SensorBias",
+    "SmoothEdge",
     "VelocityFriction",
     "ViscoelasticLag",
     "as_block",

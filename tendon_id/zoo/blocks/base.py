@@ -107,6 +107,10 @@ class Block:
         What the effect leaves in the residual (the signature, in words).
     fixed : bool
         Hold the parameters at their values instead of fitting them.
+    requires : tuple of str
+        Effects the block refines (class attribute): a model needs their blocks too, and the
+        diagnosis tries it once they are in.  A refining ``propagate`` block sets the step
+        in place of the block it refines.
     """
 
     name: ClassVar[str] = "block"
@@ -114,6 +118,7 @@ class Block:
     stage: ClassVar[str] = "exponent"
     per_tendon: ClassVar[bool] = False
     regressor: ClassVar[str] = ""
+    requires: ClassVar[tuple[str, ...]] = ()
     param_names: tuple[str, ...] = ()
     bounds: dict = field(default_factory=dict)
     probe: dict = field(default_factory=dict, compare=False, repr=False)

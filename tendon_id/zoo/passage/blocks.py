@@ -10,7 +10,7 @@ stage      hook                                              blocks
 ``load``   ``load(inputs, values) -> (T,)``: a torque or     ``position_torque``, ``velocity_friction``,
            tension added on the output side [N m or N]       ``load_coulomb``
 ``state``  where the predicted side sits between its edges   ``stick_slip`` (held through reversals)
-``edge``   how it moves from one edge to the other           ``smooth_edge`` (Dahl lag in travel)
+``edge``   how it moves from one edge to the other           ``smooth_edge`` (Maxwell slip)
 =========  ===============================================  =======================================
 
 Without a ``state`` block the passage has no memory: the predicted side is on the edge of the
@@ -67,6 +67,10 @@ class PassageBlock:
         """Parameter values that switch the effect off."""
         return {p: 0.0 for p in self.param_names}
 
+    def initial(self, scale: dict) -> dict[str, float]:
+        """Where a fit starts the parameters (default: neutral)."""
+        return self.neutral()
+
     def bounds(self, scale: dict) -> dict[str, tuple[float, float]]:
         """``(lower, upper)`` per parameter, from the data's scales (``signal`` [Q], ``travel``, ``speed``)."""
         return {}
@@ -105,27 +109,34 @@ class StickSlip(PassageBlock):
 
 @dataclass(frozen=True)
 class SmoothEdge(PassageBlock):
-    """A smooth edge of the stick/slip band against motion: a Dahl lag in the input's travel.
+    """A smooth edge of the stick/slip band: slip spreads along the wrap (generalised Maxwell slip).
 
-    The Dahl model (Dahl 1976, :func:`friction_models.dahl.travel_lag`): the predicted side
-    approaches the stick/slip state's value exponentially in the input's travel, with the
-    characteristic travel ``length`` [rad of input position, or Q without one], as a tendon's
-    compliance spreads the onset of slip along its wrap (pre-sliding). It holds while the input
-    stands still. It refines the band of ``stick_slip`` and needs it.
+    The band's play operator becomes the mean of play operators whose half-widths spread over
+    ``(1 +- width)`` of the band's (:func:`friction_models.maxwell_slip.maxwell_slip_output`;
+    Al-Bender, Lampaert & Swevers 2005): after a reversal the predicted side holds until the
+    driving side has crossed about ``1 - width`` of the band, joins the new edge gradually, and
+    slides on it beyond ``1 + width``, as a compliant cable's slip zone grows along its contact.
+    ``width`` is a fraction of the band [-], 0 the sharp edge. It refines ``stick_slip`` and
+    needs it. (A Dahl lag in the input's travel fitted to zero on ``Tool_4_Maryland_L_2``,
+    where this form lowers the error: the bench's edge is spread in the band, not in travel.)
     """
 
     effect: ClassVar[str] = "smooth_edge"
     stage: ClassVar[str] = "edge"
-    param_names: ClassVar[tuple[str, ...]] = ("length",)
-    units: ClassVar[dict[str, str]] = {"length": "rad"}
+    param_names: ClassVar[tuple[str, ...]] = ("width",)
+    units: ClassVar[dict[str, str]] = {"width": "-"}
     regressor: ClassVar[str] = "a residual of opposite signs just before and after each reversal"
     requires: ClassVar[tuple[str, ...]] = ("stick_slip",)
 
     def bounds(self, scale):
-        return {"length": (0.0, 0.5 * scale["travel"])}
+        return {"width": (0.0, 1.0)}
 
     def probe(self, scale):
-        return {"length": 0.02 * scale["travel"]}
+        return {"width": 0.2}
+
+    def initial(self, scale):
+        # The loss is flat at width 0 (every element then is the same play operator): start inside.
+        return self.probe(scale)
 
 
 @dataclass(frozen=True)

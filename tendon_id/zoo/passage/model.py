@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from friction_models.dahl import travel_lag
+from friction_models.maxwell_slip import maxwell_slip_output
 from friction_models.passage import pair_input, pair_output, tendon_input, tendon_output
 from friction_models.play_operator import play_output
 from tendon_id.data.passage import PassageRecording
@@ -50,7 +50,8 @@ class PassageModel(Estimator):
     def is_fitted(self) -> bool:
         return self.quantity_ is not None
 
-    def _inputs(self, data) -> PassageInputs:
+    def inputs(self, data) -> PassageInputs:
+        """``data`` as the model's :class:`PassageInputs`, checked against the fitted quantity."""
         self.check_fitted()
         inputs = data if isinstance(data, PassageInputs) else PassageInputs.from_recordings(data)
         if inputs.quantity != self.quantity_:
@@ -66,7 +67,7 @@ class PassageModel(Estimator):
 
     def score(self, data: PassageRecording | Sequence[PassageRecording]) -> dict[str, Any]:
         """``{"predicted": M}``: RMSE, R^2 and max error of the predicted side, after the warm-up."""
-        inputs = self._inputs(data)
+        inputs = self.inputs(data)
         keep = inputs.since_start >= float(self.warmup_s)
         pred = self.predict(inputs)[keep]
         return {"predicted": tendon_metrics(pred[:, None], self.target(inputs)[keep][:, None]), "side": self.side}
@@ -93,7 +94,8 @@ class PassageCapstan(PassageModel):
     n_starts : int
         Starts of the fit (values of ``phi`` spread over its range).
     maxeval : int
-        Jacobian evaluations per start (each costs one model evaluation per parameter).
+        nlopt's objective evaluations per start (each with a gradient, which costs one model
+        evaluation per parameter).
     """
 
     name: ClassVar[str] = "passage-capstan"
@@ -170,8 +172,8 @@ class PassageCapstan(PassageModel):
 
         Base: memoryless, on the edge of the current slip state (Eq. (6): ``sigma`` = +1 or -1
         while the input moves, 0 at rest). ``stick_slip``: held between the edges (play
-        operator), from the edge of each log's first motion. ``smooth_edge``: that, lagged in
-        the input's travel (Dahl).
+        operator), from the edge of each log's first motion. ``smooth_edge``: the mean of play
+        operators of spread widths instead (generalised Maxwell slip).
         """
         if not any(b.stage == "state" for b in self.block_objects):
             (y,) = self.edges(inputs, theta, inputs.slip_state(scale_band(inputs)))
@@ -181,9 +183,9 @@ class PassageCapstan(PassageModel):
             on_edge = np.where(inputs.first_motion(scale_band(inputs)) > 0, forward, reverse)
             lo = np.where(inputs.reset, on_edge, np.minimum(forward, reverse))
             hi = np.where(inputs.reset, on_edge, np.maximum(forward, reverse))
-            y = play_output(lo, hi, inputs.reset)
-        length = theta.get("smooth_edge:length", 0.0)
-        return travel_lag(y, inputs.travel(), length, inputs.reset) if length > 0 else y
+            width = theta.get("smooth_edge:width", 0.0)
+            y = maxwell_slip_output(lo, hi, inputs.reset, width)[0] if width > 0 else play_output(lo, hi, inputs.reset)
+        return y
 
     # ---- estimator -------------------------------------------------------------------
     def fit(self, data: PassageRecording | Sequence[PassageRecording]) -> PassageCapstan:
@@ -204,7 +206,7 @@ class PassageCapstan(PassageModel):
 
     def predict(self, data) -> NDArray:
         """The predicted side (output when forward) [N or N m], shape (T,)."""
-        inputs = self._inputs(data)
+        inputs = self.inputs(data)
         return self.reading(inputs, self.theta_)
 
     def _state(self):
