@@ -22,6 +22,7 @@ from tendon_id.errors import TendonIdError
 from tendon_id.extras import require_extra
 from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
+from tendon_id.zoo.blocks import EFFECT_BLOCKS
 from tendon_id.zoo.capstan import TYINGS, CapstanModel
 from tendon_id.zoo.passage import PASSAGE_BLOCKS, PassageCapstan, PassageModel
 from tendon_id.zoo.registry import names as model_names
@@ -306,7 +307,7 @@ def diagnose(
     candidates: Optional[str] = typer.Option(
         None,
         "--candidates",
-        help=f"Comma-separated candidate effects (default all: {', '.join(EFFECT_NAMES)}; for a passage: "
+        help=f"Comma-separated candidate effects (default all: {', '.join(EFFECT_BLOCKS)}; for a passage: "
         f"{', '.join(PASSAGE_BLOCKS)}).",
     ),
     mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
