@@ -26,8 +26,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from tendon_id.data import Recording
+from tendon_id.diagnosis.ladder import climb
 from tendon_id.diagnosis.library import Library, candidate_names
-from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult, Rung
+from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult
 from tendon_id.diagnosis.runner import Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
 from tendon_id.diagnosis.splits import make_splits, stack
@@ -179,42 +180,27 @@ def diagnose(
     where = gap_map(heldout, e0, block=block, n_boot=settings.n_boot, level=1 - settings.alpha, rng=rng)
 
     # How far: the ladder.
-    ladder = [Rung(["base"], float(np.sqrt(mse0)), 0.0)]
-    ladder_model = base
-    current, current_score = base, base_score
-    chosen: list[str] = []
-    by_effect = {effect: sc for effect, sc in zip(blocks, scores)}
-    if ranked and ranked[0].significant:
-        first = ranked[0].effect
-        chosen, current, current_score = [first], structures[order[0]], scores[order[0]]
-        ladder.append(Rung(["base", first], ranked[0].heldout_rmse, ranked[0].gap_closed, ranked[0].improvement_ci))
-        while len(chosen) < settings.max_rungs:
-            have = in_base | {all_blocks[e].effect for e in chosen}
-            remaining = [c.effect for c in ranked if c.effect not in chosen]
-            remaining += [n for n in later if n not in chosen and eligible(n, have)]
-            trial = _screen(current_score, splits[0].train, remaining, all_blocks)[: settings.ladder_width]
-            if not trial:
-                break
-            trial_structs = [current.with_blocks(all_blocks[e]) for e in trial]
-            trial_starts = [
-                [
-                    _merge(cf.model, by_effect[e].fits[k].model if e in by_effect else None)
-                    for k, cf in enumerate(current_score.fits)
-                ]
-                for e in trial
-            ]
-            trial_scores = scorer.score(trial_structs, trial_starts, f"ladder rung {len(chosen) + 1}")
-            best = int(np.argmin([np.nanmean(s.residual**2) for s in trial_scores]))
-            ci = scorer.improvement_ci(
-                current_score.residual, trial_scores[best].residual, block, 1 - 2 * settings.alpha / len(trial), rng
-            )
-            if not ci[0] > 0:
-                break
-            chosen.append(trial[best])
-            current, current_score = trial_structs[best], trial_scores[best]
-            mse = float(np.nanmean(current_score.residual**2))
-            ladder.append(Rung(["base", *chosen], float(np.sqrt(mse)), gap_closed(mse0, mse, floor), ci))
-        ladder_model = current_score.fits[0].model
+    def remaining(chosen: list[str]) -> list[str]:
+        have = in_base | {all_blocks[e].effect for e in chosen}
+        out = [c.effect for c in ranked if c.effect not in chosen]
+        return out + [n for n in later if n not in chosen and eligible(n, have)]
+
+    run = climb(
+        ranked,
+        {e: (st, sc) for e, st, sc in zip(blocks, structures, scores)},
+        base_score,
+        scorer=scorer,
+        settings=settings,
+        mse0=mse0,
+        floor=floor,
+        block=block,
+        rng=rng,
+        remaining=remaining,
+        screen=lambda score, cands: _screen(score, splits[0].train, cands, all_blocks),
+        extend=lambda structure, e: structure.with_blocks(all_blocks[e]),
+        start=lambda model, single, k: _merge(model, single.fits[k].model if single is not None else None),
+    )
+    ladder = run.ladder
     excess_ci = scorer.excess_ci(e0, floor, block, 1 - 2 * settings.alpha, rng)
     strained = {c.effect for c in ranked if c.at_bound}
     structural = {e for e, b in blocks.items() if not b.param_names}
@@ -233,7 +219,7 @@ def diagnose(
         skipped=skipped,
         ladder=ladder,
         verdict=verdict,
-        model=ladder_model,
+        model=run.score.fits[0].model,
         seconds=time.perf_counter() - t0,
     )
 

@@ -26,9 +26,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from friction_models import play_operator
+from tendon_id.diagnosis.ladder import climb
 from tendon_id.diagnosis.library import Library, candidate_names
 from tendon_id.diagnosis.refit import Fit
-from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult, Rung
+from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult
 from tendon_id.diagnosis.runner import Score, Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
 from tendon_id.diagnosis.stats import difference_floor, gap_closed
@@ -252,38 +253,24 @@ def diagnose_passage(
     )  # fmt: skip
 
     # How far: the greedy ladder, as the snake's.
-    ladder = [Rung(["base"], float(np.sqrt(mse0)), 0.0)]
-    chosen: list[str] = []
-    current_score = base_score
-    by_effect = dict(zip(first, scores))
-    if ranked and ranked[0].significant:
-        top = ranked[0].effect
-        chosen, current_score = [top], by_effect[top]
-        ladder.append(Rung(["base", top], ranked[0].heldout_rmse, ranked[0].gap_closed, ranked[0].improvement_ci))
-        while len(chosen) < settings.max_rungs:
-            remaining = _eligible(names, list(base.blocks) + chosen)
-            model = current_score.fits[0].model
-            trial = _screen(model, splits[0].train, remaining)[: settings.ladder_width]
-            if not trial:
-                break
-            structs = [model.with_blocks(e) for e in trial]
-            trial_starts = [
-                [_merge(f.model, by_effect.get(e), k) for k, f in enumerate(current_score.fits)] for e in trial
-            ]
-            trial_scores = scorer.score(structs, trial_starts, f"ladder rung {len(chosen) + 1}")
-            best = int(np.argmin([np.nanmean(s.residual**2) for s in trial_scores]))
-            ci = scorer.improvement_ci(
-                current_score.residual, trial_scores[best].residual, block, 1 - 2 * settings.alpha / len(trial), rng
-            )
-            mse = float(np.nanmean(trial_scores[best].residual ** 2))
-            gain = gap_closed(mse0, mse, floor) - ladder[-1].gap_closed
-            if not (ci[0] > 0 and gain >= settings.min_rung_gain):
-                break
-            chosen.append(trial[best])
-            current_score = trial_scores[best]
-            if _at_bound(trial[best], current_score.fits):
-                strained.add(trial[best])
-            ladder.append(Rung(["base", *chosen], float(np.sqrt(mse)), gap_closed(mse0, mse, floor), ci))
+    run = climb(
+        ranked,
+        {e: (st, sc) for e, st, sc in zip(first, structures, scores)},
+        base_score,
+        scorer=scorer,
+        settings=settings,
+        mse0=mse0,
+        floor=floor,
+        block=block,
+        rng=rng,
+        remaining=lambda chosen: _eligible(names, list(base.blocks) + chosen),
+        screen=lambda score, cands: _screen(score.fits[0].model, splits[0].train, cands),
+        extend=lambda structure, e: structure.with_blocks(e),
+        start=lambda model, single, k: _merge(model, single, k),
+        min_gain=settings.min_rung_gain,
+    )
+    ladder = run.ladder
+    strained |= {e for e, sc in zip(run.chosen[1:], run.scores[1:]) if _at_bound(e, sc.fits)}
     excess_ci = scorer.excess_ci(e0, floor, block, 1 - 2 * settings.alpha, rng)
     structural = {n for n in PASSAGE_BLOCKS if not PASSAGE_BLOCKS[n].param_names}
     unit = UNITS[full.quantity]
@@ -302,7 +289,7 @@ def diagnose_passage(
         skipped=skipped,
         ladder=ladder,
         verdict=verdict,
-        model=current_score.fits[0].model,
+        model=run.score.fits[0].model,
         seconds=time.perf_counter() - t0,
         unit=unit,
     )
