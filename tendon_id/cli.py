@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import warnings
 from pathlib import Path
 from typing import Optional
 
@@ -24,6 +25,7 @@ from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
 from tendon_id.zoo.blocks import EFFECT_BLOCKS
 from tendon_id.zoo.capstan import TYINGS, CapstanModel
+from tendon_id.zoo.guard import PriorGuardWarning
 from tendon_id.zoo.passage import PASSAGE_BLOCKS, PassageCapstan, PassageModel
 from tendon_id.zoo.registry import names as model_names
 from tendon_id.zoo.registry import names_of
@@ -129,10 +131,25 @@ def fit(
 
     m = zoo.make(model, **_parse_sets(set_))
     recs = _read_all(data, mapping)
-    m.fit(recs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PriorGuardWarning)  # printed below, plainly
+        m.fit(recs)
     m.save(out)
     frames = sum(r.n_frames for r in recs)
     typer.echo(f"fitted {model} on {frames} frames; saved to {out}")
+    _echo_guard(m)
+
+
+def _echo_guard(m) -> None:
+    """A learned cascade's validation RMSE against its calibrated prior's; the warning on stderr when worse."""
+    from tendon_id.zoo.guard import guard_message
+
+    guard = getattr(m, "guard_", None)
+    if guard:
+        first, *rest = guard_message(m.name, guard).split("\n")
+        typer.echo(first)
+        for line in rest:
+            typer.echo(line, err=True)
 
 
 @app.command()
@@ -160,6 +177,7 @@ def evaluate(
         return
     t = score["terminal"]
     typer.echo(f"{m.name} on {data} ({rec.n_frames} frames)")
+    _echo_guard(m)
     typer.echo(f"terminal joint     RMSE {t['rmse']:8.3f} N   R2 {t['r2']:7.3f}   max error {t['max_error']:8.3f} N")
     if score["joints"]:
         for j, mj in enumerate(score["joints"]["per_joint"], start=1):
@@ -218,15 +236,18 @@ def benchmark(
     ),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the result as JSON (DESIGN §10 shape)."),
     backend: str = typer.Option(
-        "loky", "--backend", help="joblib backend of the sweep's and diagnosis's jobs (loky, threading, dask, ray)."
+        "loky",
+        "--backend",
+        help="joblib backend of the sweep's, diagnosis's and regimes' jobs (loky, threading, dask, ray).",
     ),
     jobs: int = typer.Option(
-        1, "--jobs", help="Parallel jobs of the sweep and diagnosis (joblib's n_jobs; -1: all cores)."
+        1, "--jobs", help="Parallel jobs of the sweep, diagnosis and regimes (joblib's n_jobs; -1: all cores)."
     ),
     points: int = typer.Option(
         5, "--points", help="Grid values per parameter of the sweep (log-spaced, operating point included)."
     ),
     quick: bool = typer.Option(False, "--quick", help="diagnosis: every effect once, at default magnitude."),
+    out: Optional[Path] = typer.Option(None, "--out", help="regimes: also write the heat-map page (HTML)."),
 ) -> None:
     from tendon_id.benchmarks.registry import format_table, run_benchmark
 
@@ -241,6 +262,10 @@ def benchmark(
         kwargs.update(seed=seed, backend=backend, n_jobs=jobs, points=points)
     if name == "latency":
         kwargs.update(seed=seed)
+    if out is not None and name != "regimes":
+        raise TendonIdError("--out: only the regimes benchmark writes a page")
+    if name == "regimes":
+        kwargs.update(seed=seed, backend=backend, n_jobs=jobs)
     if name == "diagnosis":
         if recipe:
             raise TendonIdError("--recipe: the diagnosis benchmark simulates its own cases (see its guide)")
@@ -250,6 +275,10 @@ def benchmark(
     if json_out:
         _write_json(json_out, result)
         typer.echo(f"wrote {json_out}")
+    if out is not None:
+        from tendon_id.report.regimes import write_regimes_page
+
+        typer.echo(f"wrote {write_regimes_page(result, out)}")
 
 
 @app.command()
@@ -346,10 +375,12 @@ def demo(
         None, "--frames", help="Frames per protocol in the summary (default: the demo's small sizes)."
     ),
     models: bool = typer.Option(
-        True, "--models/--no-models", help="Train PG-CHTC (fast) and calibrate capstan-nonsmooth for the comparison."
+        True,
+        "--models/--no-models",
+        help="Train PG-CHTC and PG-CHTC-NS (fast) and calibrate capstan-nonsmooth for the comparison.",
     ),
 ) -> None:
-    """The main job on the default recipe: simulate, compare capstan-nonsmooth with PG-CHTC, write OUT/summary.html."""
+    """The main job on the default recipe: simulate, compare capstan-nonsmooth and the cascades in OUT/summary.html."""
     from tendon_id.demo import run_demo
 
     path = run_demo(out, recipe=recipe, frames=frames, models=models)

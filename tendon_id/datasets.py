@@ -34,14 +34,16 @@ def names() -> list[str]:
     return sorted(p.stem for p in recipe_dir().glob("*.toml"))
 
 
-def load_recipe(name_or_path: str | os.PathLike) -> Recipe:
-    """A bundled recipe by name, or a recipe file by path.
+def load_recipe(name_or_path: str | os.PathLike | Recipe) -> Recipe:
+    """A bundled recipe by name, or a recipe file by path (a :class:`Recipe` is returned as it is).
 
     Raises
     ------
     ConfigError
         If there is no such recipe, naming the known ones.
     """
+    if isinstance(name_or_path, Recipe):
+        return name_or_path
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
         return Recipe.from_toml(p)

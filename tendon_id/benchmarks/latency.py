@@ -25,6 +25,7 @@ import numpy as np
 import torch
 
 from learners.cascade import Cascade, normalised_geometry, normalised_tensions
+from learners.correction import CorrectedCascade
 from learners.presets import preset as get_preset
 from learners.training import fit_feature_norm
 from tendon_id.datasets import load_recipe
@@ -32,6 +33,7 @@ from tendon_id.geometry import sin_q
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
 from tendon_id.zoo.learned import PGCHTC
+from tendon_id.zoo.learned_ns import PGCHTCNS
 from tendon_id.zoo.registry import make
 
 
@@ -52,6 +54,23 @@ def untrained_model(recording, preset: str, seed: int = 0) -> PGCHTC:
     model.n_modules_ = inp.n_modules
     model.prior_A_ = model.prior_B_ = np.zeros(3)
     model.history_ = {}
+    return model
+
+
+def untrained_ns_model(recording, preset: str, seed: int = 0) -> PGCHTCNS:
+    """A pg-chtc-ns model with random correction weights and its prior calibrated on ``recording`` (for timing)."""
+    torch.manual_seed(seed)
+    model = PGCHTCNS(preset=preset, seed=seed, progress=False)
+    inp = TransmissionInputs.from_recordings(recording)
+    cascade = CorrectedCascade(inp.n_modules - 1, model.correction_config())
+    fit_feature_norm(cascade, sin_q(inp.angles), inp.wrap, np.concatenate([inp.actuator.reshape(-1, 3), inp.terminal]))
+    with torch.no_grad():
+        for u in cascade.units:
+            torch.nn.init.normal_(u.head.weight, std=0.05)
+    model.prior_model_ = make("capstan-nonsmooth", seed=seed).fit(recording)
+    model.cascade_ = cascade.eval()
+    model.geometry_, model.n_modules_, model.dt_ = inp.geometry, inp.n_modules, inp.dt
+    model.guard_, model.history_ = {}, {}
     return model
 
 
@@ -149,6 +168,8 @@ def latency(
         streamed_one, one_ms = _stream(model.streamer("native", threads=1), angles, act)
         same_bits = bool(np.array_equal(streamed_one, streamed))
     rel = lambda a, b: float(np.max(np.abs(a / b - 1.0)))  # noqa: E731
+    ns = untrained_ns_model(rec, preset, seed)
+    ns_streamed, ns_ms = _stream(ns.streamer(), angles, act)
 
     n = model.n_modules_
     history = [[[] for _ in range(n)] for _ in range(n - 1)]
@@ -185,6 +206,9 @@ def latency(
         "batch_max_rel_diff_vs_float64": rel(batch, exact),
         "naive_max_rel_diff_vs_batch": rel(np.stack(naive_out)[:, 1:], batch[timed.start : timed.stop, 1:]),
         "trained_fast": agreement,
+        "ns_streaming_ms_median": ns_ms,
+        "ns_vs_pgchtc": ns_ms / stream_ms,
+        "ns_max_rel_diff_vs_batch": rel(ns_streamed, ns.predict(first)),
         "native_threads": native_threads,
         "native_one_thread_ms_median": one_ms,
         "native_threads_same_bits": same_bits,
@@ -222,6 +246,12 @@ def format_latency(r: dict) -> str:
         f"max relative difference from batch {r['naive_max_rel_diff_vs_batch']:.2e}"
     )
     lines.append(f"  batch inference (float32 units) is {r['batch_max_rel_diff_vs_float64']:.2e} from float64")
+    if r.get("ns_streaming_ms_median") is not None:
+        lines.append(
+            f"  pg-chtc-ns streaming (numpy, same preset's width): {r['ns_streaming_ms_median']:.2f} ms/frame, "
+            f"{r['ns_vs_pgchtc']:.2f}x pg-chtc's; max relative difference from batch "
+            f"{r['ns_max_rel_diff_vs_batch']:.2e}"
+        )
     a = r.get("trained_fast")
     if a:
         lines.append(

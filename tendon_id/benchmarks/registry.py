@@ -57,6 +57,11 @@ BENCHMARKS: dict[str, Benchmark] = {
         "tendon_id.benchmarks.diagnosis:diagnosis_benchmark",
         "tendon_id.benchmarks.diagnosis:format_diagnosis",
     ),
+    "regimes": Benchmark(
+        "when a learned cascade beats calibrated physics: pg-chtc and pg-chtc-ns against capstan-nonsmooth",
+        "tendon_id.benchmarks.regimes:regimes",
+        "tendon_id.benchmarks.regimes:format_regimes",
+    ),
     "latency": Benchmark(
         "streaming latency per frame (paper Section IV-B), against batch inference",
         "tendon_id.benchmarks.latency:latency",

@@ -8,6 +8,7 @@ import numpy as np
 
 from tendon_id.data import Recording
 from tendon_id.datasets import load
+from tendon_id.sim import Recipe
 
 #: Held-out test trajectories per protocol: the paper's T = 800 / 500 / 1260 frames.
 TEST_TRAJECTORIES = {"posterior-3": 4, "posterior-6": 4, "planned-paths": 4}
@@ -46,8 +47,17 @@ def _full_length(rec: Recording) -> list[str]:
     return [t for t, c in counts.items() if c == longest]
 
 
-def paper_split(recipe: str = "snake12-paper", seed: int = 0, *, progress: bool | None = None) -> PaperSplit:
-    """Build the Section IV-B split of a recipe (cached datasets, seeded choice of test trajectories)."""
+def paper_split(
+    recipe: str | Recipe = "snake12-paper",
+    seed: int = 0,
+    *,
+    train_frames: int = TRAIN_FRAMES,
+    progress: bool | None = None,
+) -> PaperSplit:
+    """Build the Section IV-B split of a recipe (cached datasets, seeded choice of test trajectories).
+
+    ``train_frames`` is the training pool's size [frames] (the paper's 23 000 by default).
+    """
     rng = np.random.default_rng(seed)
     recs = {p: load(recipe, protocol=p, progress=progress) for p in ("terminal-only",) + TEST_PROTOCOLS}
     test, pool = {}, []
@@ -56,7 +66,7 @@ def paper_split(recipe: str = "snake12-paper", seed: int = 0, *, progress: bool 
         test[p] = recs[p].select(sorted(held))
         if p != "planned-paths":
             pool.append(recs[p].select([t for t in recs[p].trajectories if t not in held]))
-    budget = TRAIN_FRAMES - sum(r.n_frames for r in pool)
+    budget = train_frames - sum(r.n_frames for r in pool)
     term = recs["terminal-only"]
     order = list(rng.permutation(term.trajectories))
     chosen, frames = [], 0

@@ -36,6 +36,9 @@ TABLE2_METHODS = (
     "pg-chtc w/o physics regularizer",
     "pg-chtc w/o temporal residual",
     "pg-chtc",
+    "pg-chtc-ns w/o correction",
+    "pg-chtc-ns w/o state inputs",
+    "pg-chtc-ns",
 )
 METRIC_KEYS = ("rmse", "r2", "max_error")
 
@@ -43,6 +46,8 @@ METRIC_KEYS = ("rmse", "r2", "max_error")
 ROW_MODELS = {
     "pg-chtc w/o physics regularizer": ("pg-chtc", {"physics_reg": False}),
     "pg-chtc w/o temporal residual": ("pg-chtc", {"temporal_residual": False}),
+    "pg-chtc-ns w/o correction": ("pg-chtc-ns", {"correction": False}),
+    "pg-chtc-ns w/o state inputs": ("pg-chtc-ns", {"state_inputs": False}),
 }
 
 
@@ -178,8 +183,9 @@ def table2(
 
 def format_rows(result: dict) -> str:
     """Table I / II rows as an aligned text table (terminal and intermediate joints)."""
+    w = max([22] + [len(r["method"]) for r in result["rows"]])
     head = (
-        f"{'method':22s} {'protocol':15s} {'RMSE [N]':>9s} {'+-sd':>6s} {'R2':>7s} {'MaxErr':>8s} | "
+        f"{'method':{w}s} {'protocol':15s} {'RMSE [N]':>9s} {'+-sd':>6s} {'R2':>7s} {'MaxErr':>8s} | "
         f"{'joints RMSE':>11s} {'R2':>7s}"
     )
     reps = result["rows"][0].get("repeats", 1) if result["rows"] else 1
@@ -194,7 +200,7 @@ def format_rows(result: dict) -> str:
         sd = (r.get("terminal_sd") or {}).get("rmse", 0.0)
         js = f"{j['rmse']:11.3f} {j['r2']:7.3f}" if j else f"{'-':>11s} {'-':>7s}"
         lines.append(
-            f"{r['method']:22s} {r['protocol']:15s} {t['rmse']:9.3f} {sd:6.2f} {t['r2']:7.3f} "
+            f"{r['method']:{w}s} {r['protocol']:15s} {t['rmse']:9.3f} {sd:6.2f} {t['r2']:7.3f} "
             f"{t['max_error']:8.3f} | {js}"
         )
     return "\n".join(lines)

@@ -176,10 +176,8 @@ def refit(
     a, b, vals = unpack(z)
     if structure.mu_law == "affine-cosine":
         b = np.maximum(b, np.abs(a))
-    fitted = structure.with_blocks()
-    fitted.A_, fitted.B_ = a, b
-    fitted.block_values_ = {bn: {q: vals[bn][q] for bb, q in names if bb == bn} for bn, _ in names}
-    fitted.geometry_, fitted.n_modules_ = inputs.geometry, inputs.n_modules
+    block_values = {bn: {q: vals[bn][q] for bb, q in names if bb == bn} for bn, _ in names}
+    fitted = structure.fitted_with(a, b, inputs.geometry, inputs.n_modules, block_values)
     sse = float(np.sum(residual(z) ** 2))
     fitted.calibration_ = {"loss": sse / (3 * n_keep), "status": str(sol.message), "n_eval": n_eval, "starts": 1}
     labels = [f"{ab}[{g}]:{i + 1}" for i in range(3) for ab, g in _law_labels(layout)] + [f"{b}:{q}" for b, q in names]

@@ -8,6 +8,7 @@ import numpy as np
 
 from tendon_id.data import Recording
 from tendon_id.report.html import HtmlPage, pyplot
+from tendon_id.zoo.guard import guard_message
 
 
 def estimates_figure(
@@ -59,6 +60,18 @@ def per_joint_rmse_figure(scores: Mapping[str, dict]):
     return fig
 
 
+def add_guards(page: HtmlPage, models: Mapping[str, object]) -> None:
+    """One line per learned cascade: its validation RMSE against its calibrated prior's, a warning when worse."""
+    for name, model in models.items():
+        guard = getattr(model, "guard_", None)
+        if not guard:
+            continue
+        lines = guard_message(name, guard).split("\n")
+        page.paragraph(lines[0] + ".", cls="note")
+        for line in lines[1:]:
+            page.paragraph(line, cls="warning")
+
+
 def add_comparison(page: HtmlPage, test: dict[str, Recording], models: Mapping[str, object], heading: str) -> dict:
     """Append a model-comparison section (table per protocol, per-joint RMSE, traces); returns the scores."""
     page.heading(heading)
@@ -70,6 +83,7 @@ def add_comparison(page: HtmlPage, test: dict[str, Recording], models: Mapping[s
             j = s["joints"]["overall"] if s.get("joints") and s["joints"]["overall"] else None
             rows.append([protocol, name, s["terminal"]["rmse"], s["terminal"]["r2"], j["rmse"] if j else "-"])
     page.table(["protocol", "model", "terminal RMSE [N]", "terminal R2", "intermediate joints RMSE [N]"], rows)
+    add_guards(page, models)
     first = next(iter(test))
     page.figure(per_joint_rmse_figure(all_scores[first]), f"RMSE at every joint on held-out {first} trajectories.")
     rec = test[first].select([test[first].trajectories[0]])

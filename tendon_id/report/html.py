@@ -18,6 +18,7 @@ table{border-collapse:collapse;margin:.6em 0} td,th{border:1px solid #ccd;paddin
 th{background:#f2f4f8} td:first-child,th:first-child{text-align:left}
 figure{margin:1em 0} figcaption{color:#555;font-size:.9em} img{max-width:100%}
 .note{color:#555;font-size:.9em}
+.warning{color:#8a1c00;background:#fff1ec;border-left:4px solid #d9480f;padding:.4em .7em}
 """
 
 

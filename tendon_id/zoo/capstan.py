@@ -278,6 +278,22 @@ class CapstanModel(TransmissionModel):
         self.n_modules_ = inputs.n_modules
         return self
 
+    def fitted_with(
+        self, A: NDArray, B: NDArray, geometry: RobotGeometry, n_modules: int, block_values: dict | None = None
+    ) -> CapstanModel:
+        """An unfitted copy of this model, given a law instead of calibrating one.
+
+        ``A``, ``B`` have shape (G, 3) or (3,) (tied); ``block_values`` are the free block
+        parameters, ``{block: {param: value}}`` (default: the blocks' own).
+        """
+        model = type(self)(**self.get_params())
+        model.A_ = np.atleast_2d(np.asarray(A, dtype=float)).copy()
+        model.B_ = np.atleast_2d(np.asarray(B, dtype=float)).copy()
+        model.block_values_ = {k: dict(v) for k, v in (block_values or {}).items()}
+        model.calibration_ = {"given": True}
+        model.geometry_, model.n_modules_ = geometry, int(n_modules)
+        return model
+
     def inputs(self, data: Recording | Sequence[Recording]) -> TransmissionInputs:
         """The arrays the fitted model reads from ``data``, with the geometry it was fitted with.
 

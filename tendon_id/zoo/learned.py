@@ -20,14 +20,14 @@ from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.geometry import RobotGeometry, sin_q
 from tendon_id.progress import epoch_progress
-from tendon_id.zoo.base import TransmissionModel
 from tendon_id.zoo.features import padded_unit_inputs, unit_inputs
+from tendon_id.zoo.guard import GuardedCascade
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 from tendon_id.zoo.neural import load_weights, resolve_device, weights_array
 from tendon_id.zoo.registry import make
 
 
-class PGCHTC(TransmissionModel):
+class PGCHTC(GuardedCascade):
     """The physics-guided cable-hole transmission cascade (paper Section III).
 
     Parameters
@@ -60,6 +60,10 @@ class PGCHTC(TransmissionModel):
         Robot description; default from the data's metadata.
     progress : bool, optional
         Progress bars (default: on a terminal).
+    fallback : bool
+        When the trained cascade predicts the validation trajectories worse than its own
+        calibrated prior model (the guard, :mod:`tendon_id.zoo.guard`), predict with that
+        prior instead.  Default False: the paper's behaviour, the cascade, with a warning.
 
     Attributes
     ----------
@@ -68,6 +72,11 @@ class PGCHTC(TransmissionModel):
         The capstan prior's law (Eq. (9)), calibrated on the training split.
     history_ : dict
         Per-epoch train and validation losses of both stages.
+    prior_model_ : CapstanModel
+        The calibrated prior model (the one ``prior`` names, or capstan-nonsmooth with the given law).
+    guard_ : dict
+        Validation terminal RMSE of the cascade and of its prior [N], their ratio, ``worse``
+        and ``fallback`` (:func:`tendon_id.zoo.guard.guard_report`).
     """
 
     name = "pg-chtc"
@@ -88,6 +97,7 @@ class PGCHTC(TransmissionModel):
         seed: int = 0,
         robot: dict | None = None,
         progress: bool | None = None,
+        fallback: bool = False,
     ):
         self.preset = preset
         self.physics_reg = physics_reg
@@ -103,6 +113,7 @@ class PGCHTC(TransmissionModel):
         self.seed = seed
         self.robot = robot
         self.progress = progress
+        self.fallback = fallback
 
     # ---- configuration --------------------------------------------------------------
     def _unit_config(self) -> UnitConfig:
@@ -171,9 +182,13 @@ class PGCHTC(TransmissionModel):
         if isinstance(self.prior, dict):
             self.prior_A_ = np.asarray(self.prior["A"], dtype=float).reshape(3)
             self.prior_B_ = np.asarray(self.prior["B"], dtype=float).reshape(3)
+            law = make("capstan-nonsmooth", robot=self.geometry_).fitted_with(
+                self.prior_A_, self.prior_B_, self.geometry_, self.n_modules_
+            )
         else:  # Eq. (9) with the law of a calibrated capstan model (tied)
             law = make(self.prior, robot=self.geometry_, tying="tied", seed=self.seed).fit(train)
             self.prior_A_, self.prior_B_ = law.A_[0].copy(), law.B_[0].copy()
+        self.prior_model_ = law
         tr_inp = self._inputs([train], self.geometry_)
         cascade = Cascade(self.n_modules_ - 1, cfg, tied=bool(self.tied))
         fit_feature_norm(
@@ -199,6 +214,7 @@ class PGCHTC(TransmissionModel):
             "best_val1": hist.best_val1,
             "best_val2": hist.best_val2,
         }
+        self._guard(val)
         return self
 
     def cascade_inputs(self, recs: list[Recording]) -> tuple[CascadeInputs, list[tuple[int, int]], TransmissionInputs]:
@@ -226,6 +242,9 @@ class PGCHTC(TransmissionModel):
         Batched over trajectories, time and sets.
         """
         recs = self._check(data)
+        prior = self._prior_chain(recs)
+        if prior is not None:
+            return prior
         cin, bounds, inp = self.cascade_inputs(recs)
         n = inp.n_modules
         with torch.no_grad():
@@ -260,7 +279,8 @@ class PGCHTC(TransmissionModel):
             "prior_B": self.prior_B_.tolist(),
             "history": self.history_,
         }
-        return state, weights_array(self.cascade_)
+        prior_state, prior_arrays = self._prior_state()
+        return {**state, **prior_state}, {**weights_array(self.cascade_), **prior_arrays}
 
     def _restore(self, state, arrays):
         self.n_modules_ = int(state["n_modules"])
@@ -270,6 +290,7 @@ class PGCHTC(TransmissionModel):
         self.cascade_ = load_weights(Cascade(self.n_modules_ - 1, UnitConfig(**unit), tied=bool(state["tied"])), arrays)
         self.prior_A_, self.prior_B_ = np.asarray(state["prior_A"]), np.asarray(state["prior_B"])
         self.history_ = state.get("history", {})
+        self._restore_prior(state, arrays)
 
 
 STREAM_ENGINES = ("auto", "native", "torch")

@@ -24,6 +24,7 @@ BUILTIN: dict[str, str] = {
     "lstm": "tendon_id.zoo.baselines:LSTMBaseline",
     "transformer": "tendon_id.zoo.baselines:TransformerBaseline",
     "pg-chtc": "tendon_id.zoo.learned:PGCHTC",
+    "pg-chtc-ns": "tendon_id.zoo.learned_ns:PGCHTCNS",
     "passage-capstan": "tendon_id.zoo.passage.model:PassageCapstan",
 }
 

@@ -125,9 +125,37 @@ def test_benchmark_table2_json(tmp_path, capsys):
         (["benchmark", "table9"], "unknown benchmark"),
         (["benchmark", "table1", "--preset", "huge"], "unknown preset"),
         (["calibrate", "--model", "capstan-simple", "--out", "c"], "at least one recording"),
+        (["benchmark", "table1", "--out", "page.html"], "only the regimes benchmark writes a page"),
     ],
 )
 def test_model_commands_bad_input_exit_2(tmp_path, monkeypatch, capsys, argv, needle):
     monkeypatch.chdir(tmp_path)
     code, _, err = run(capsys, *argv)
     assert code == 2 and needle in err and "Traceback" not in err
+
+
+def test_fit_prints_the_guard_and_warns_plainly_when_the_cascade_is_worse(recording, tmp_path, capsys):
+    """A tiny PG-CHTC on 600 frames is worse than its calibrated prior: the CLI says so, in words, on stderr."""
+    code, out, err = run(
+        capsys, "fit", "pg-chtc", "--data", str(recording), "--set", "preset=tiny", "--out", str(tmp_path / "m")
+    )
+    assert code == 0, err
+    assert "validation terminal RMSE" in out and "for its calibrated prior capstan-nonsmooth" in out
+    assert err.startswith("WARNING: the learned cascade is worse than its prior capstan-nonsmooth")
+    assert "PriorGuardWarning" not in err and "Traceback" not in err
+    code, out, err = run(capsys, "evaluate", "--model", str(tmp_path / "m"), "--data", str(recording))
+    assert code == 0 and "for its calibrated prior" in out and "WARNING" in err
+    code, out, err = run(
+        capsys,
+        "fit",
+        "pg-chtc",
+        "--data",
+        str(recording),
+        "--set",
+        "preset=tiny",
+        "--set",
+        "fallback=true",
+        "--out",
+        str(tmp_path / "f"),
+    )
+    assert code == 0 and "it predicts with capstan-nonsmooth" in err

@@ -25,7 +25,7 @@ def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypa
     real_make = zoo.make
 
     def small(name, **kw):
-        if name == "pg-chtc":
+        if name in ("pg-chtc", "pg-chtc-ns"):
             kw["preset"] = "tiny"
         return real_make(name, **kw)
 
@@ -34,4 +34,7 @@ def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypa
     assert code == 0, capsys.readouterr().err
     page = (tmp_path / "out" / "summary.html").read_text()
     assert "PG-CHTC" in page and "capstan-nonsmooth" in page and "intermediate joints RMSE" in page
+    assert "PG-CHTC-NS" in page
+    # each learned cascade's guard: its validation RMSE against its calibrated prior's
+    assert page.count("for its calibrated prior capstan-nonsmooth") == 2
     assert len(re.findall(r'src="data:image/png;base64,', page)) == 1 + 2 * 4 + 2

@@ -1,0 +1,98 @@
+"""The regime map's page: heat maps of each learned cascade's RMSE ratio to calibrated capstan-nonsmooth."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from tendon_id.report.html import HtmlPage, pyplot
+
+#: The learned models of the map, in column order (the physics baseline is the denominator).
+LEARNED = ("pg-chtc", "pg-chtc-ns")
+
+
+def _grid(result: dict, key: str) -> tuple[list[str], list[str], np.ndarray]:
+    """Ratios ``key`` as (settings, columns, array (settings, columns)); columns are model x session."""
+    cells = result["cells"]
+    settings = list(dict.fromkeys(c["setting"] for c in cells))
+    sessions = list(dict.fromkeys(c["session"] for c in cells))
+    columns = [f"{m}\n{s}" for s in sessions for m in LEARNED]
+    out = np.full((len(settings), len(columns)), np.nan)
+    for c in cells:
+        base = c["methods"]["capstan-nonsmooth"][key]["rmse"]
+        for m in LEARNED:
+            col = columns.index(f"{m}\n{c['session']}")
+            out[settings.index(c["setting"]), col] = c["methods"][m][key]["rmse"] / base
+    return settings, columns, out
+
+
+def regime_heatmap(result: dict):
+    """Two heat maps (terminal joint, intermediate joints): ratio to capstan-nonsmooth, blue where learning wins."""
+    plt = pyplot()
+    from matplotlib.colors import LogNorm
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, 0.5 * len(set(c["setting"] for c in result["cells"])) + 2.2))
+    norm = LogNorm(vmin=0.25, vmax=4.0)
+    for ax, key, title in zip(axes, ("terminal", "joints"), ("terminal joint", "intermediate joints 2..N-1")):
+        settings, columns, ratio = _grid(result, key)
+        im = ax.imshow(np.clip(ratio, 0.25, 4.0), cmap="RdBu_r", norm=norm, aspect="auto")
+        for (i, j), v in np.ndenumerate(ratio):
+            ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=8, color="k" if 0.5 < v < 2 else "w")
+        ax.set_xticks(range(len(columns)), labels=columns, fontsize=8)
+        ax.set_yticks(range(len(settings)), labels=settings, fontsize=8)
+        ax.set_title(f"RMSE ratio to capstan-nonsmooth, {title}", fontsize=10)
+    fig.colorbar(im, ax=axes, shrink=0.8, label="ratio (below 1: the learned cascade is better)")
+    return fig
+
+
+def write_regimes_page(result: dict, path: str | os.PathLike) -> Path:
+    """Write the regime map as a self-contained HTML page; returns its path."""
+    page = HtmlPage(f"Regime map: when does learning beat calibrated physics? ({result['recipe']})")
+    page.paragraph(
+        "Each row is the recipe with one physical setting changed, each column a learned cascade in a session "
+        "whose logs start where unlogged motion left them (continuous) or from forward slip (fresh). A cell is "
+        "the learned cascade's held-out RMSE divided by calibrated capstan-nonsmooth's in the same regime: "
+        "blue (below 1) where learning wins, red where the calibrated physics does."
+    )
+    page.figure(regime_heatmap(result), "Overall RMSE ratios (frame-weighted over the three test protocols).")
+    rows = []
+    for c in result["cells"]:
+        m = c["methods"]
+        best = min(m, key=lambda k: m[k]["terminal"]["rmse"])
+        floor = c["floor"]["rmse"] if c.get("floor") else "-"
+        rows.append(
+            [c["setting"], c["session"]]
+            + [m[k]["terminal"]["rmse"] for k in m]
+            + [m[k]["joints"]["rmse"] for k in m]
+            + [floor, best]
+        )
+    names = list(result["cells"][0]["methods"]) if result["cells"] else []
+    page.heading("Overall RMSE [N]")
+    page.table(
+        ["setting", "session"]
+        + [f"{n} terminal" for n in names]
+        + [f"{n} joints" for n in names]
+        + ["noise floor", "best at the terminal"],
+        rows,
+    )
+    guards = [
+        f"{c['setting']}, {c['session']}: {k} ({g['cascade_rmse']:.3g} N against {g['prior_rmse']:.3g} N)"
+        for c in result["cells"]
+        for k, m in c["methods"].items()
+        if (g := m.get("guard")) and g.get("worse")
+    ]
+    if guards:
+        page.paragraph(
+            "The prior guard fired (validation RMSE worse than the calibrated prior's) in: " + "; ".join(guards) + ".",
+            cls="warning",
+        )
+    f = result["cells"][0]["frames"] if result["cells"] else {}
+    page.paragraph(
+        f"Preset {result['preset']}, seed {result['seed']}, {len(result['cells'])} regimes, "
+        f"{f.get('train', 0)} training and {f.get('val', 0)} validation frames each, built in "
+        f"{result['seconds']:.0f} s. Made by: tendon-id benchmark regimes --out PAGE.",
+        cls="note",
+    )
+    return page.write(path)
