@@ -96,6 +96,8 @@ except ImportError:  # pragma: no cover - the docs extra installs it
 
 html_title = f"tendon-id {release}"
 html_static_path: list[str] = []
+# Pages written by benchmarks (the regime map), copied as they are to the root of the site.
+html_extra_path = ["_extra"]
 html_show_sourcelink = False
 
 

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 
@@ -54,6 +55,7 @@ from tendon_id.sim.effects import Effects
 from tendon_id.sim.protocols import ProtocolSettings
 from tendon_id.sim.transmission import FrictionLaw
 from tendon_id.zoo import make
+from tendon_id.zoo.guard import PriorGuardWarning
 
 #: The models of the map: the physics baseline first (the ratios' denominator).
 METHODS = ("capstan-nonsmooth", "pg-chtc", "pg-chtc-ns")
@@ -190,7 +192,9 @@ def regime_job(base: str, regime: dict, seed: int, preset: str, threads: int | N
     methods = {}
     for name in METHODS:
         model = make(name, **({"preset": preset, "seed": seed, "progress": False} if name != METHODS[0] else {}))
-        model.fit(split.calibration)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PriorGuardWarning)  # its figures are in the result and on the page
+            model.fit(split.calibration)
         scores = [model.score(split.test[p]) for p in TEST_PROTOCOLS]
         methods[name] = {
             "terminal": frame_weighted([s["terminal"] for s in scores], weights),

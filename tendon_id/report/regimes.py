@@ -41,9 +41,12 @@ def regime_heatmap(result: dict):
         for (i, j), v in np.ndenumerate(ratio):
             ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=8, color="k" if 0.5 < v < 2 else "w")
         ax.set_xticks(range(len(columns)), labels=columns, fontsize=8)
-        ax.set_yticks(range(len(settings)), labels=settings, fontsize=8)
+        ax.set_yticks(range(len(settings)), labels=settings if ax is axes[0] else [], fontsize=8)
         ax.set_title(f"RMSE ratio to capstan-nonsmooth, {title}", fontsize=10)
-    fig.colorbar(im, ax=axes, shrink=0.8, label="ratio (below 1: the learned cascade is better)")
+    ticks = [0.25, 0.5, 1.0, 2.0, 4.0]
+    bar = fig.colorbar(im, ax=axes, shrink=0.8, label="ratio (below 1: the learned cascade is better)", ticks=ticks)
+    bar.ax.set_yticklabels([f"{t:g}" for t in ticks])
+    bar.ax.minorticks_off()
     return fig
 
 

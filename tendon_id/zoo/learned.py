@@ -266,6 +266,12 @@ class PGCHTC(GuardedCascade):
         See :class:`PGCHTCStream` for ``engine`` and ``threads``.
         """
         self.check_fitted()
+        if self.uses_prior_:
+            raise ConfigError(
+                "this pg-chtc model predicts with its prior capstan-nonsmooth (the guard found the cascade worse and "
+                "fallback=True), which PG-CHTC's engines do not stream; stream pg-chtc-ns instead, whose correction "
+                "is kept only where it helps"
+            )
         return PGCHTCStream(self, engine, threads)
 
     # ---- persistence ----------------------------------------------------------------------

@@ -11,6 +11,7 @@ from tendon_id import zoo
 from tendon_id.benchmarks.regimes import nonsmooth_truth_recipe
 from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
+from tendon_id.errors import ConfigError
 from tendon_id.sim import simulate
 from tendon_id.zoo.guard import PriorGuardWarning
 
@@ -124,6 +125,8 @@ def test_the_guard_fires_for_pg_chtc_on_nonsmooth_truth_and_the_fallback_predict
     with pytest.warns(PriorGuardWarning, match="it predicts with capstan-nonsmooth"):
         safe = zoo.make("pg-chtc", fallback=True, **TINY).fit(train)
     assert safe.uses_prior_
+    with pytest.raises(ConfigError, match="stream pg-chtc-ns instead"):
+        safe.streamer()
     np.testing.assert_array_equal(safe.predict(test), safe.prior_model_.predict(test))
     np.testing.assert_array_equal(safe.predict_terminal(test), safe.prior_model_.predict_terminal(test))
     # the prior is capstan-nonsmooth calibrated on the training trajectories, and so scores like it
