@@ -9,6 +9,7 @@ of every metric, with its standard deviation over splits under ``"*_sd"`` keys.
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -18,6 +19,7 @@ from tendon_id.datasets import load
 from tendon_id.metrics import frame_weighted
 from tendon_id.progress import progress_bar
 from tendon_id.zoo import make
+from tendon_id.zoo.guard import PriorGuardWarning
 
 #: Rows of Table I (single passage) and Table II (cascade), in the paper's order.
 TABLE1_METHODS = (
@@ -148,12 +150,16 @@ def table2(
     """
     t0 = time.perf_counter()
     factory = factory or model_factory(preset, seed)
-    per_split = []
+    per_split, guards = [], []
     for s in progress_bar(range(seed, seed + repeats), desc="table2", enable=progress):
         split = paper_split(recipe, s, progress=progress)
         rows = []
         for method in progress_bar(methods, desc=f"split {s}", enable=progress):
-            model = factory(method).fit(split.calibration)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", PriorGuardWarning)  # its figures go into the result
+                model = factory(method).fit(split.calibration)
+            if getattr(model, "guard_", None):
+                guards.append({"method": method, "split": s, **model.guard_})
             scores = {p: model.score(split.test[p]) for p in TEST_PROTOCOLS}
             frames = [split.test[p].n_frames for p in TEST_PROTOCOLS]
             rows += [_row(method, p, scores[p]) for p in TEST_PROTOCOLS]
@@ -172,6 +178,7 @@ def table2(
         "preset": preset,
         "recipe": recipe,
         "rows": _aggregate(per_split, repeats),
+        "guards": guards,
         "seconds": time.perf_counter() - t0,
         "frames": {
             "train": split.train.n_frames,
@@ -182,7 +189,7 @@ def table2(
 
 
 def format_rows(result: dict) -> str:
-    """Table I / II rows as an aligned text table (terminal and intermediate joints)."""
+    """Table I / II rows as an aligned text table (terminal and intermediate joints), then where a guard fired."""
     w = max([22] + [len(r["method"]) for r in result["rows"]])
     head = (
         f"{'method':{w}s} {'protocol':15s} {'RMSE [N]':>9s} {'+-sd':>6s} {'R2':>7s} {'MaxErr':>8s} | "
@@ -202,5 +209,10 @@ def format_rows(result: dict) -> str:
         lines.append(
             f"{r['method']:{w}s} {r['protocol']:15s} {t['rmse']:9.3f} {sd:6.2f} {t['r2']:7.3f} "
             f"{t['max_error']:8.3f} | {js}"
+        )
+    worse = [g for g in result.get("guards", []) if g["worse"]]
+    for g in worse:
+        lines.append(
+            f"guard: {g['method']} (split {g['split']}) was {g['ratio']:.2f}x its prior {g['prior']} on validation"
         )
     return "\n".join(lines)
