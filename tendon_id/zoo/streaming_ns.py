@@ -82,34 +82,40 @@ class PGCHTCNSStream:
         return self.prior.exponent(one, self.prior.A_, self.prior.B_, self.values)[0]
 
     def step(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
-        """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out."""
+        """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out.
+
+        The prior's chain does not depend on the correction, so it runs first, guide by guide
+        (one clamp each); the play operators' state is then updated for every guide at once,
+        and only the correction runs guide by guide over the corrected chain.
+        """
         angles = np.asarray(angles, dtype=float)
         actuator = np.asarray(actuator, dtype=float)
         n = self.n
-        if self.streams is None:
-            self.streams = [PlayStateStream((n - g - 1, 3), self.dt) for g in range(n - 1)]
+        start = self.streams is None
+        if start:
+            self.streams = PlayStateStream((n - 1, n, 3), self.dt)  # guides x sets x tendons
         sq, alpha, log_act = unit_inputs(angles, actuator, self.geometry.alpha_0)
-        phi = self._phi(angles, actuator)
-        x_prior = log_act.copy()  # the prior's own chain
+        phi = np.broadcast_to(self._phi(angles, actuator), (n - 1, n, 3))
+        x_in, lo, hi = (np.empty((n - 1, n, 3)) for _ in range(3))
+        x = log_act  # the prior's own chain; sets that no longer pass a guide carry values nobody reads
+        for g in range(n - 1):
+            x_in[g], lo[g], hi[g] = x, x - phi[g], x + phi[g]
+            x = lo[g] if start else np.minimum(np.maximum(self.streams.y[g], lo[g]), hi[g])
+        y, state = self.streams.step(lo, hi)  # the same clamps, and every guide's state
+        ratio = y - x_in  # ln r_prior per guide and set
         x_hat = log_act.copy()  # the corrected chain
         if self.layers:
             geo = (np.concatenate([sq, np.cos(alpha)[:, None]], axis=1) - self.mean[:5]) / self.std[:5]
         for g in range(n - 1):
             active = slice(g + 1, n)
-            ph = phi[g, active] if phi.shape[1] > 1 else phi[g]
-            x = x_prior[active]
-            y, state = self.streams[g].step(x - ph, x + ph)
-            ratio = y - x
+            r = ratio[g, active]
             if self.layers:
                 t = x_hat[active]
                 parts = [np.broadcast_to(geo[g], (n - g - 1, 5)), (np.exp(t) - self.mean[5:]) / self.std[5:]]
                 if self.state_inputs:
-                    parts.append(state.reshape(n - g - 1, -1))
-                ratio = np.clip(
-                    ratio + self._delta(g, np.concatenate(parts, axis=1)), -LOG_RATIO_BOUND, LOG_RATIO_BOUND
-                )
-            x_hat[active] = x_hat[active] + ratio
-            x_prior[active] = y
+                    parts.append(state[g, active].reshape(n - g - 1, -1))
+                r = np.clip(r + self._delta(g, np.concatenate(parts, axis=1)), -LOG_RATIO_BOUND, LOG_RATIO_BOUND)
+            x_hat[active] = x_hat[active] + r
         est = np.exp(x_hat)
         est[0] = actuator[0]
         return est
