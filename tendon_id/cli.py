@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-import warnings
 from pathlib import Path
 from typing import Optional
 
@@ -25,7 +24,7 @@ from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
 from tendon_id.zoo.blocks import EFFECT_BLOCKS
 from tendon_id.zoo.capstan import TYINGS, CapstanModel
-from tendon_id.zoo.guard import PriorGuardWarning
+from tendon_id.zoo.guard import quiet_guard
 from tendon_id.zoo.passage import PASSAGE_BLOCKS, PassageCapstan, PassageModel
 from tendon_id.zoo.registry import names as model_names
 from tendon_id.zoo.registry import names_of
@@ -131,8 +130,7 @@ def fit(
 
     m = zoo.make(model, **_parse_sets(set_))
     recs = _read_all(data, mapping)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PriorGuardWarning)  # printed below, plainly
+    with quiet_guard():  # printed below, plainly
         m.fit(recs)
     m.save(out)
     frames = sum(r.n_frames for r in recs)

@@ -38,14 +38,14 @@ from __future__ import annotations
 
 import os
 import time
-import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import delayed
 
-from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
+from tendon_id.benchmarks.jobs import job_runner
+from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split, score_test
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.metrics import frame_weighted, tendon_metrics
@@ -55,7 +55,7 @@ from tendon_id.sim.effects import Effects
 from tendon_id.sim.protocols import ProtocolSettings
 from tendon_id.sim.transmission import FrictionLaw
 from tendon_id.zoo import make
-from tendon_id.zoo.guard import PriorGuardWarning
+from tendon_id.zoo.guard import quiet_guard
 
 #: The models of the map: the physics baseline first (the ratios' denominator).
 METHODS = ("capstan-nonsmooth", "pg-chtc", "pg-chtc-ns")
@@ -188,17 +188,15 @@ def regime_job(base: str, regime: dict, seed: int, preset: str, threads: int | N
     r = Regime(**regime)
     recipe = r.recipe(load_recipe(base))
     split = paper_split(recipe, seed, train_frames=TRAIN_FRAMES, progress=False)
-    weights = [split.test[p].n_frames for p in TEST_PROTOCOLS]
     methods = {}
     for name in METHODS:
         model = make(name, **({"preset": preset, "seed": seed, "progress": False} if name != METHODS[0] else {}))
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", PriorGuardWarning)  # its figures are in the result and on the page
+        with quiet_guard():  # its figures are in the result and on the page
             model.fit(split.calibration)
-        scores = [model.score(split.test[p]) for p in TEST_PROTOCOLS]
+        scored = score_test(model, split.test)
         methods[name] = {
-            "terminal": frame_weighted([s["terminal"] for s in scores], weights),
-            "joints": frame_weighted([s["joints"]["overall"] for s in scores], weights),
+            "terminal": scored["terminal"],
+            "joints": scored["joints"],
             "guard": getattr(model, "guard_", None),
         }
     return {
@@ -207,7 +205,11 @@ def regime_job(base: str, regime: dict, seed: int, preset: str, threads: int | N
         "session": r.session,
         "methods": methods,
         "floor": _noise_floor(recipe, seed, split.test) if r.session == "fresh" else None,
-        "frames": {"train": split.train.n_frames, "val": split.val.n_frames, **dict(zip(TEST_PROTOCOLS, weights))},
+        "frames": {
+            "train": split.train.n_frames,
+            "val": split.val.n_frames,
+            **{p: split.test[p].n_frames for p in TEST_PROTOCOLS},
+        },
         "seconds": time.perf_counter() - t0,
     }
 
@@ -250,20 +252,13 @@ def regimes(
         :func:`regime_job`'s results.
     """
     t0 = time.perf_counter()
-    if isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0:
-        raise ConfigError(f"n_jobs must be a non-zero integer, got {n_jobs!r}")
+    parallel = job_runner(backend, n_jobs)
     load_recipe(recipe)  # an unknown recipe fails before any job starts
     cells = list(only) if only is not None else grid_regimes()
     threads = None
     if n_jobs != 1:  # share the cores: each job's torch gets its part
         cores = os.cpu_count() or 1
         threads = max(1, cores // (int(n_jobs) if n_jobs > 0 else cores))
-    try:
-        parallel = Parallel(
-            n_jobs=int(n_jobs), return_as="generator", **({"backend": backend} if backend is not None else {})
-        )
-    except ValueError as exc:
-        raise ConfigError(f"joblib backend {backend!r}: {exc}") from None
     out = parallel(delayed(regime_job)(recipe, asdict(c), seed, preset, threads) for c in cells)
     results = list(progress_bar(out, desc="regimes", total=len(cells), enable=progress))
     rows = []

@@ -8,6 +8,7 @@ import numpy as np
 
 from tendon_id.data import Recording
 from tendon_id.datasets import load
+from tendon_id.metrics import frame_weighted
 from tendon_id.sim import Recipe
 
 #: Held-out test trajectories per protocol: the paper's T = 800 / 500 / 1260 frames.
@@ -79,3 +80,28 @@ def paper_split(
     pool.insert(0, term.select(sorted(chosen)))
     train, val = Recording.concat(pool).split((0.7, 0.3), seed=seed)
     return PaperSplit(train=train, val=val, test=test)
+
+
+def score_test(model, test: dict) -> dict:
+    """A fitted model's scores on the held-out protocols, and their frame-weighted overall (paper Table II).
+
+    Parameters
+    ----------
+    model : TransmissionModel
+    test : dict of str to Recording
+        :attr:`PaperSplit.test`.
+
+    Returns
+    -------
+    dict
+        ``{"protocols": {protocol: model.score(...)}, "terminal": M, "joints": M | None}``; the
+        overall ``joints`` needs intermediate truth in every protocol.
+    """
+    scores = {p: model.score(test[p]) for p in TEST_PROTOCOLS}
+    frames = [test[p].n_frames for p in TEST_PROTOCOLS]
+    joints = [scores[p]["joints"]["overall"] if scores[p]["joints"] else None for p in TEST_PROTOCOLS]
+    return {
+        "protocols": scores,
+        "terminal": frame_weighted([scores[p]["terminal"] for p in TEST_PROTOCOLS], frames),
+        "joints": frame_weighted(joints, frames) if all(joints) else None,
+    }

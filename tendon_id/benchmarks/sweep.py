@@ -48,8 +48,9 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import delayed
 
+from tendon_id.benchmarks.jobs import job_runner
 from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
 from tendon_id.errors import ConfigError
 from tendon_id.metrics import frame_weighted, tendon_metrics
@@ -200,8 +201,7 @@ def sweep(
     if not params:
         raise ConfigError("the sweep needs at least one parameter")
     grids = {p: grid(p, points) for p in params}
-    if isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0:
-        raise ConfigError(f"n_jobs must be a non-zero integer, got {n_jobs!r}")
+    parallel = job_runner(backend, n_jobs)
     # Build (or read) the split once here, so local workers find it cached and never race to build it.
     split = paper_split(recipe, seed, progress=progress)
 
@@ -210,12 +210,6 @@ def sweep(
         for v in grids[p]:
             jobs.setdefault(tuple(sorted(_settings(p, v).items())), (p, v))
     keys = list(jobs)
-    try:
-        parallel = Parallel(
-            n_jobs=int(n_jobs), return_as="generator", **({"backend": backend} if backend is not None else {})
-        )
-    except ValueError as exc:  # an unknown or unregistered backend name
-        raise ConfigError(f"joblib backend {backend!r}: {exc}") from None
     out = parallel(delayed(sweep_job)(recipe, seed, preset, p, v) for p, v in jobs.values())
     results = dict(zip(keys, progress_bar(out, desc="sweep", total=len(keys), enable=progress)))
 

@@ -9,17 +9,15 @@ of every metric, with its standard deviation over splits under ``"*_sd"`` keys.
 from __future__ import annotations
 
 import time
-import warnings
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
+from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split, score_test
 from tendon_id.datasets import load
-from tendon_id.metrics import frame_weighted
 from tendon_id.progress import progress_bar
 from tendon_id.zoo import make
-from tendon_id.zoo.guard import PriorGuardWarning
+from tendon_id.zoo.guard import quiet_guard
 
 #: Rows of Table I (single passage) and Table II (cascade), in the paper's order.
 TABLE1_METHODS = (
@@ -155,22 +153,14 @@ def table2(
         split = paper_split(recipe, s, progress=progress)
         rows = []
         for method in progress_bar(methods, desc=f"split {s}", enable=progress):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", PriorGuardWarning)  # its figures go into the result
+            with quiet_guard():  # its figures go into the result
                 model = factory(method).fit(split.calibration)
             if getattr(model, "guard_", None):
                 guards.append({"method": method, "split": s, **model.guard_})
-            scores = {p: model.score(split.test[p]) for p in TEST_PROTOCOLS}
-            frames = [split.test[p].n_frames for p in TEST_PROTOCOLS]
-            rows += [_row(method, p, scores[p]) for p in TEST_PROTOCOLS]
-            joint_rows = [scores[p]["joints"]["overall"] if scores[p]["joints"] else None for p in TEST_PROTOCOLS]
+            scored = score_test(model, split.test)
+            rows += [_row(method, p, scored["protocols"][p]) for p in TEST_PROTOCOLS]
             rows.append(
-                {
-                    "method": method,
-                    "protocol": "overall",
-                    "terminal": frame_weighted([scores[p]["terminal"] for p in TEST_PROTOCOLS], frames),
-                    "joints": frame_weighted(joint_rows, frames) if all(joint_rows) else None,
-                }
+                {"method": method, "protocol": "overall", "terminal": scored["terminal"], "joints": scored["joints"]}
             )
         per_split.append(rows)
     return {

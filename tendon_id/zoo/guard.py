@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -27,6 +28,14 @@ PRIOR_ARRAYS = "prior/"
 
 class PriorGuardWarning(UserWarning):
     """A learned cascade predicts the validation trajectories worse than its own calibrated prior."""
+
+
+@contextmanager
+def quiet_guard():
+    """A context in which :class:`PriorGuardWarning` is not shown: for callers that report ``guard_`` themselves."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PriorGuardWarning)
+        yield
 
 
 def guard_report(cascade_rmse: float, prior_rmse: float, prior: str, frames: int, fallback: bool) -> dict:

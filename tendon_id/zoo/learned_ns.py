@@ -168,8 +168,7 @@ class PGCHTCNS(GuardedCascade):
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
 
-    def _frames(self, recs: list[Recording], sets: np.ndarray, device) -> CorrectionInputs:
-        inputs = TransmissionInputs.from_recordings(recs, self.geometry_)
+    def _frames(self, inputs: TransmissionInputs, sets: np.ndarray, device) -> CorrectionInputs:
         log_ratio, state = prior_terms(self.prior_model_, inputs, sets)
         f32 = lambda a: torch.as_tensor(a, dtype=torch.float32, device=device)  # noqa: E731
         f64 = lambda a: torch.as_tensor(a, dtype=torch.float64, device=device)  # noqa: E731
@@ -213,8 +212,8 @@ class PGCHTCNS(GuardedCascade):
         try:
             hist = train_correction(
                 cascade,
-                (self._frames([train], terminal, device), label(train)),
-                (self._frames([val], terminal, device), label(val)),
+                (self._frames(tr, terminal, device), label(train)),
+                (self._frames(TransmissionInputs.from_recordings([val], self.geometry_), terminal, device), label(val)),
                 LoopSchedule(tc.lr1, tc.epochs1, tc.patience1, tc.weight_decay),
                 LossWeights(self.lam, self.lam_s, self.eta_w),
                 batch=tc.batch1,
@@ -236,11 +235,12 @@ class PGCHTCNS(GuardedCascade):
             return self.prior_model_.predict_chain(recs)
         n = self.n_modules_
         sets = np.arange(n)
-        inp = self._frames(recs, sets, torch.device("cpu"))
+        inputs = TransmissionInputs.from_recordings(recs, self.geometry_)
+        inp = self._frames(inputs, sets, torch.device("cpu"))
         with torch.no_grad():
             _, log_ratio = self.cascade_(inp, torch.as_tensor(sets))
         cum = np.cumsum(log_ratio.numpy(), axis=1)  # through guides 1..k
-        act = TransmissionInputs.from_recordings(recs, self.geometry_).actuator
+        act = inputs.actuator
         chain = np.exp(np.concatenate([np.zeros((len(act), 1, n, 3)), cum], axis=1) + np.log(act)[:, None])
         chain[:, 0] = act
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
