@@ -230,29 +230,33 @@ def benchmark(
     recipe: Optional[str] = typer.Option(None, "--recipe", help="Recipe (default: the benchmark's own)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the first data split."),
     repeats: Optional[int] = typer.Option(
-        None, "--repeats", help="Random splits to average over (tables; default 5 for table1, 3 for table2)."
+        None,
+        "--repeats",
+        help="Random splits (table1, table2) or closed-loop seeds (table3) to average over (default 5, 3, 3).",
     ),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the result as JSON (DESIGN §10 shape)."),
     backend: str = typer.Option(
         "loky",
         "--backend",
-        help="joblib backend of the sweep's, diagnosis's and regimes' jobs (loky, threading, dask, ray).",
+        help="joblib backend of the sweep's, diagnosis's, regimes' and table3's jobs (loky, threading, dask, ray).",
     ),
     jobs: int = typer.Option(
-        1, "--jobs", help="Parallel jobs of the sweep, diagnosis and regimes (joblib's n_jobs; -1: all cores)."
+        1, "--jobs", help="Parallel jobs of the sweep, diagnosis, regimes and table3 (joblib's n_jobs; -1: all cores)."
     ),
     points: int = typer.Option(
         5, "--points", help="Grid values per parameter of the sweep (log-spaced, operating point included)."
     ),
     quick: bool = typer.Option(False, "--quick", help="diagnosis: every effect once, at default magnitude."),
-    out: Optional[Path] = typer.Option(None, "--out", help="regimes: also write the heat-map page (HTML)."),
+    out: Optional[Path] = typer.Option(
+        None, "--out", help="regimes: also write the heat-map page; table3: the closed-loop page (HTML)."
+    ),
 ) -> None:
     from tendon_id.benchmarks.registry import format_table, run_benchmark
 
     if repeats is not None and repeats < 1:
         raise TendonIdError("--repeats must be at least 1")
-    kwargs: dict = {"seed": seed} if name in ("table1", "table2") else {}
-    if repeats is not None and name in ("table1", "table2"):
+    kwargs: dict = {"seed": seed} if name in ("table1", "table2", "table3") else {}
+    if repeats is not None and name in ("table1", "table2", "table3"):
         kwargs["repeats"] = repeats
     if recipe:
         kwargs["recipe"] = recipe
@@ -260,8 +264,12 @@ def benchmark(
         kwargs.update(seed=seed, backend=backend, n_jobs=jobs, points=points)
     if name == "latency":
         kwargs.update(seed=seed)
-    if out is not None and name != "regimes":
-        raise TendonIdError("--out: only the regimes benchmark writes a page")
+    if out is not None and name not in ("regimes", "table3"):
+        raise TendonIdError("--out: only the regimes and table3 benchmarks write a page")
+    if out is not None and out.suffix.lower() not in (".html", ".htm"):
+        raise TendonIdError(f"--out {out}: the page is an HTML file (.html)")
+    if name == "table3":
+        kwargs.update(backend=backend, n_jobs=jobs)
     if name == "regimes":
         kwargs.update(seed=seed, backend=backend, n_jobs=jobs)
     if name == "diagnosis":
@@ -273,10 +281,14 @@ def benchmark(
     if json_out:
         _write_json(json_out, result)
         typer.echo(f"wrote {json_out}")
-    if out is not None:
+    if out is not None and name == "regimes":
         from tendon_id.report.regimes import write_regimes_page
 
         typer.echo(f"wrote {write_regimes_page(result, out)}")
+    if out is not None and name == "table3":
+        from tendon_id.report.closed_loop import write_table3_page
+
+        typer.echo(f"wrote {write_table3_page(result, out)}")
 
 
 @app.command()

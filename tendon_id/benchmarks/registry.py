@@ -42,6 +42,11 @@ BENCHMARKS: dict[str, Benchmark] = {
         "tendon_id.benchmarks.tables:table2",
         "tendon_id.benchmarks.tables:format_rows",
     ),
+    "table3": Benchmark(
+        "paper Table III, the estimator in a 10 Hz closed loop on the simulated robot",
+        "tendon_id.benchmarks.table3:table3",
+        "tendon_id.benchmarks.table3:format_table3",
+    ),
     "recovery": Benchmark(
         "does calibration recover a known law, and does its posterior cover it",
         "tendon_id.benchmarks.recovery:recovery",

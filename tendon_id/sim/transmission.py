@@ -47,7 +47,16 @@ from tendon_id.geometry import (
 )
 from tendon_id.sim.effects import Effects
 
-__all__ = ["FrictionLaw", "TransmissionResult", "sliding_speed", "transmit"]
+__all__ = [
+    "FrictionLaw",
+    "GuideWraps",
+    "TransmissionResult",
+    "guide_exponent",
+    "guide_mu",
+    "sliding_speed",
+    "transmit",
+    "wear_factors",
+]
 
 
 @dataclass(frozen=True)
@@ -121,6 +130,88 @@ class TransmissionResult:
         return self.chain[:, np.arange(n), np.arange(n), :]
 
 
+class GuideWraps:
+    """Wrap [rad] of every guide over a block of frames, by the recipe's wrap model (DESIGN §4).
+
+    Without ``per_tendon_wrap`` it is the backbone wrap of paper Eq. (3), shared by every set and
+    tendon; with it, the exact turns of the hole points (``model = "exact"``) or the projected
+    small-angle form (``"projected"``).  Shared by :func:`transmit` and the closed loop's stepper,
+    so both run the same geometry.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (T, N, 2)
+        True joint angles [rad]; ``T`` may be frames or a batch of robots.
+    geometry, effects :
+        Robot and the effects that are on.
+    """
+
+    def __init__(self, theta: NDArray, geometry: RobotGeometry, effects: Effects):
+        self.geometry = geometry
+        self.model = effects.get("per_tendon_wrap").model if "per_tendon_wrap" in effects else None
+        self.wrap = backbone_wrap(theta, geometry.alpha_0)  # (T, N-1)
+        psi = tendon_azimuths(geometry)
+        if self.model == "exact":
+            self.R = joint_rotation(theta)
+            self.ux, self.uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
+        elif self.model == "projected":
+            self.bend_abs = np.abs(projected_bend(theta, psi))  # (T, N joints, N sets, 3)
+
+    def at(self, g: int) -> NDArray:
+        """Wrap of guide ``g + 1`` for sets ``g + 2 .. N``, broadcastable to (T, sets, 3) [rad]."""
+        return self._wraps(slice(g, g + 1), slice(g + 1, self.geometry.n_modules))[:, 0]
+
+    def every(self) -> NDArray:
+        """Wrap of every guide for every set, broadcastable to (T, N-1, N, 3) [rad].
+
+        Sets that do not pass a guide get a wrap too (the stepper masks them): one array
+        operation for the whole chain instead of one per guide.
+        """
+        return self._wraps(slice(0, self.geometry.n_modules - 1), slice(0, self.geometry.n_modules))
+
+    def _wraps(self, guides: slice, on: slice) -> NDArray:
+        geo = self.geometry
+        if self.model == "exact":  # turns at joint k (into link k) and joint k+1 (out of link k)
+            ux, uy, h = self.ux[on], self.uy[on], 0.5 * geo.joint_gap
+            lower = self.R[:, guides, None, None]
+            upper = self.R[:, guides.start + 1 : guides.stop + 1, None, None]
+            alpha = turn_into_upper(lower, ux, uy, h) + turn_out_of_lower(upper, ux, uy, h)
+            return np.minimum(alpha + geo.alpha_0, np.pi)
+        if self.model == "projected":
+            b = self.bend_abs
+            upper = slice(guides.start + 1, guides.stop + 1)
+            return np.minimum(0.5 * b[:, guides, on] + 0.5 * b[:, upper, on] + geo.alpha_0, np.pi)
+        return self.wrap[:, guides, None, None]
+
+
+def wear_factors(geometry: RobotGeometry, effects: Effects) -> NDArray | None:
+    """Per-guide friction multipliers ``w_k`` of ``guide_wear``, or None when it is off."""
+    if "guide_wear" not in effects:
+        return None
+    return guide_wear_factors(geometry.n_modules - 1, effects.get("guide_wear").guides)
+
+
+def guide_mu(friction: FrictionLaw, alpha: NDArray, where: str) -> NDArray:
+    """``mu_i(alpha)`` (paper Eq. (4)); refuses a law that turns negative at these wraps (``where``: which guides)."""
+    mu = friction.mu(alpha)
+    if np.any(mu < 0):
+        bad = float(np.max(np.broadcast_to(alpha, mu.shape)[mu < 0]))
+        raise ConfigError(
+            f"the friction law is negative at wraps this motion reaches ({bad:.2f} rad at {where}); "
+            "use a law with mu >= 0 there"
+        )
+    return mu
+
+
+def guide_exponent(mu: NDArray, alpha: NDArray, geometry: RobotGeometry, effects: Effects, wear=None) -> NDArray:
+    """Capstan exponent ``phi = w_k mu beta alpha`` (paper Eqs. (5)-(6), DESIGN §5).
+
+    ``wear`` is the guide's wear factor ``w_k`` (or factors broadcastable to ``mu``); None for 1.
+    """
+    ph = mu * (alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha)
+    return ph if wear is None else ph * wear
+
+
 def transmit(
     theta: NDArray,
     actuator: NDArray,
@@ -147,21 +238,15 @@ def transmit(
     """
     n = geometry.n_modules
     n_frames = theta.shape[0]
-    wrap = backbone_wrap(theta, geometry.alpha_0)  # (T, N-1)
+    wraps = GuideWraps(theta, geometry, effects)
     psi = tendon_azimuths(geometry)
-    wrap_model = effects.get("per_tendon_wrap").model if "per_tendon_wrap" in effects else None
-    if wrap_model == "exact":
-        R = joint_rotation(theta)
-        ux, uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
-    elif wrap_model == "projected":
-        bend_abs = np.abs(projected_bend(theta, psi))  # (T, N joints, N sets, 3)
     stick_slip = "stick_slip" in effects
     slide = effects.get("stick_slip") if stick_slip and effects.get("stick_slip").driver == "motion" else None
     edge_width = effects.get("stick_slip").smooth_width if stick_slip else 0.0  # 0: the sharp play operator
     if "velocity_friction" in effects or slide is not None:
         cum_rate = backward_rate(np.cumsum(theta, axis=1), reset, dt)  # d/dt of sum_{m<=j} theta_m
     vf = effects.get("velocity_friction") if "velocity_friction" in effects else None
-    wear = guide_wear_factors(n - 1, effects.get("guide_wear").guides) if "guide_wear" in effects else None
+    wear = wear_factors(geometry, effects)
     bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
     visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
 
@@ -174,28 +259,13 @@ def transmit(
     # guide by guide, so memory stays at (T, sets, 3) however long the chain.
     for g in range(n - 1):
         on = slice(g + 1, n)
-        if wrap_model == "exact":  # turns at joint k (into link k) and joint k+1 (out of link k)
-            alpha = turn_into_upper(R[:, g, None, None], ux[on], uy[on], 0.5 * geometry.joint_gap)
-            alpha = alpha + turn_out_of_lower(R[:, g + 1, None, None], ux[on], uy[on], 0.5 * geometry.joint_gap)
-            alpha = np.minimum(alpha + geometry.alpha_0, np.pi)
-        elif wrap_model == "projected":
-            alpha = np.minimum(0.5 * bend_abs[:, g, on] + 0.5 * bend_abs[:, g + 1, on] + geometry.alpha_0, np.pi)
-        else:
-            alpha = wrap[:, g, None, None]  # the backbone wrap, shared by every set and tendon
-        mu = friction.mu(alpha)
-        if np.any(mu < 0):
-            bad = float(np.max(np.broadcast_to(alpha, mu.shape)[mu < 0]))
-            raise ConfigError(
-                f"the friction law is negative at wraps this motion reaches ({bad:.2f} rad at guide {g + 1}); "
-                "use a law with mu >= 0 there"
-            )
+        alpha = wraps.at(g)
+        mu = guide_mu(friction, alpha, f"guide {g + 1}")
         if vf is not None:
             mu = velocity_dependent_mu(
                 mu, sliding_speed_at(cum_rate, g, psi, geometry.hole_radius), vf.v_ref, vf.stribeck_drop, vf.v_stribeck
             )
-        ph = mu * (alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha)
-        if wear is not None:
-            ph = ph * wear[g]
+        ph = guide_exponent(mu, alpha, geometry, effects, None if wear is None else wear[g])
         x = log_t[:, on]
         ph = np.broadcast_to(ph, x.shape)
         if bend > 0:
@@ -225,4 +295,4 @@ def transmit(
         phi_all[:, g, on] = ph
         log_t[:, on] = y
         chain[:, g + 1, on] = np.exp(y)
-    return TransmissionResult(chain=chain, sigma=sigma, wrap=wrap, phi=phi_all)
+    return TransmissionResult(chain=chain, sigma=sigma, wrap=wraps.wrap, phi=phi_all)

@@ -1,0 +1,240 @@
+"""One closed-loop step test: the paper's step-and-return on a batch of simulated robots.
+
+Every estimator drives its own robot; the robots share the seed's step direction and the
+same sensor-noise draws (common random numbers), so their differences are the estimators'.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tendon_id.closed_loop.controller import HybridController, HybridGains
+from tendon_id.closed_loop.estimators import InLoopEstimator
+from tendon_id.closed_loop.metrics import StepMetrics, rms_error, step_metrics
+from tendon_id.closed_loop.plant import JointDynamics, Plant
+from tendon_id.errors import ConfigError
+from tendon_id.sim import Recipe
+
+__all__ = ["STEP_TESTS", "ClosedLoopRun", "StepTest", "loop_metrics", "run_step_test"]
+
+
+@dataclass(frozen=True)
+class StepTest:
+    """The paper's step-and-return regimes (Section IV-C, Table III).
+
+    The reference bends every stepped joint by ``amplitude_deg`` along one direction (drawn per
+    seed), holds it for ``hold_s`` (loop 1), returns to straight and holds again (loop 2).
+    Each move is a minimum-jerk profile whose peak speed is the recipe's quasi-static limit
+    ``v_max`` (DESIGN §5): duration ``1.875 A / v_max``.
+
+    Parameters
+    ----------
+    regime : str
+        ``"posterior-3"`` or ``"posterior-6"``.
+    joints : tuple of int
+        Stepped modules, 1-based.
+    amplitude_deg : float
+        Step size [deg].
+    hold_s : float
+        Length of each loop [s].
+    lead_s : float
+        Straight hold before the step, while the tendons are pretensioned [s].
+    """
+
+    regime: str
+    joints: tuple[int, ...]
+    amplitude_deg: float
+    hold_s: float = 12.0
+    lead_s: float = 3.0
+
+
+STEP_TESTS = {
+    "posterior-3": StepTest("posterior-3", (10, 11, 12), 5.0),
+    "posterior-6": StepTest("posterior-6", (7, 8, 9, 10, 11, 12), 3.0),
+}
+
+
+def _min_jerk(s: NDArray) -> NDArray:
+    s = np.clip(s, 0.0, 1.0)
+    return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+
+
+@dataclass(frozen=True)
+class ClosedLoopRun:
+    """Traces of one step test, one row per estimator, sampled at the controller's rate.
+
+    Attributes
+    ----------
+    estimators : list of str
+    t : ndarray, shape (F,)
+        Time [s].
+    direction : ndarray, shape (2,)
+        Unit bending direction of the step.
+    ref : ndarray, shape (F, N, 2)
+        Reference angles [rad].
+    angles : ndarray, shape (E, F, N, 2)
+        Measured (encoder) angles [rad].
+    joint_side, estimate : ndarray, shape (E, F, N, 3)
+        True joint-side tensions and the estimator's [N].
+    command : ndarray, shape (E, F, N, 3)
+        Actuator-side commands [N].
+    sigma : ndarray of int8, shape (E, F, N-1, N, 3)
+        True slip state per guide, set and tendon at each sample.
+    """
+
+    test: StepTest
+    estimators: list
+    t: NDArray
+    direction: NDArray
+    ref: NDArray
+    angles: NDArray
+    joint_side: NDArray
+    estimate: NDArray
+    command: NDArray
+    sigma: NDArray
+    seed: int
+
+    def traces(self) -> dict:
+        """What a Fig. 6 needs, as JSON lists: the stepped joints' reference and measured angles [deg]."""
+        idx = np.asarray(self.test.joints) - 1
+        return {
+            "t": self.t.tolist(),
+            "estimators": list(self.estimators),
+            "joints": list(self.test.joints),
+            "direction": self.direction.tolist(),
+            "amplitude_deg": self.test.amplitude_deg,
+            "lead_s": self.test.lead_s,
+            "hold_s": self.test.hold_s,
+            "ref_deg": np.rad2deg(self.ref[:, idx]).round(4).tolist(),
+            "angles_deg": np.rad2deg(self.angles[:, :, idx]).round(4).tolist(),
+        }
+
+    def loop_window(self, loop: int) -> NDArray:
+        """Boolean mask of loop 1 (step) or 2 (return) over ``t``."""
+        s = self.test.lead_s + (loop - 1) * self.test.hold_s
+        return (self.t >= s - 1e-9) & (self.t < s + self.test.hold_s - 1e-9)
+
+
+def run_step_test(
+    recipe: Recipe,
+    estimators: Sequence[InLoopEstimator],
+    test: StepTest,
+    *,
+    seed: int = 0,
+    gains: HybridGains | Sequence[HybridGains] | None = None,
+    dynamics: JointDynamics | None = None,
+    plant_dt: float = 1e-3,
+) -> ClosedLoopRun:
+    """Run ``test`` with every estimator in the loop of its own robot.
+
+    Parameters
+    ----------
+    recipe : Recipe
+        The truth: robot, friction law, effects (with their stick/slip state carried), sensors.
+    estimators : sequence of InLoopEstimator
+    test : StepTest
+    seed : int
+        Step direction and sensor noise. The same seed gives the same bytes.
+    gains : HybridGains or sequence of HybridGains, optional
+        The controller's gains (default :class:`HybridGains`), or one per estimator (for tuning).
+    dynamics : JointDynamics, optional
+    plant_dt : float
+        Plant integration step [s] (1 kHz by default; see :class:`~tendon_id.closed_loop.plant.Plant`).
+    """
+    if not estimators:
+        raise ConfigError("a closed-loop run needs at least one estimator")
+    n = recipe.robot.n_modules
+    if any(not 1 <= j <= n for j in test.joints):
+        raise ConfigError(f"step test {test.regime} moves joints {test.joints}, but the robot has {n} modules")
+    gains = [gains or HybridGains()] * len(estimators) if not isinstance(gains, Sequence) else list(gains)
+    if len(gains) != len(estimators):
+        raise ConfigError(f"{len(gains)} sets of gains for {len(estimators)} estimators")
+    period = recipe.dt
+    seed = int(seed)
+    rng = np.random.default_rng([seed, 7])  # stream 7: the step direction
+    heading = rng.uniform(0.0, 2.0 * np.pi)
+    direction = np.array([np.cos(heading), np.sin(heading)])
+    plant = Plant(recipe, len(estimators), dynamics, plant_dt)
+    plant.reset(np.array([np.full((n, 3), g.pretension_n) for g in gains]))
+    ctrl = [
+        HybridController(
+            g,
+            plant.psi,
+            plant.geometry.hole_radius,
+            plant.stiffness,
+            period,
+            recipe.actuation.max_tension_n,
+        )
+        for g in gains
+    ]
+    for est in estimators:
+        est.reset()
+
+    frames = int(round((test.lead_s + 2 * test.hold_s) / period))
+    t = np.arange(frames) * period
+    amp = np.deg2rad(test.amplitude_deg)
+    move_s = 1.875 * test.amplitude_deg / recipe.v_max_deg_s  # minimum jerk peaks at v_max
+    profile = amp * (_min_jerk((t - test.lead_s) / move_s) - _min_jerk((t - test.lead_s - test.hold_s) / move_s))
+    ref = np.zeros((frames, n, 2))
+    ref[:, np.asarray(test.joints) - 1] = profile[:, None, None] * direction
+
+    e = len(estimators)
+    angles = np.zeros((e, frames, n, 2))
+    joint_side, estimate, command = (np.zeros((e, frames, n, 3)) for _ in range(3))
+    sigma = np.zeros((e, frames, n - 1, n, 3), dtype=np.int8)
+    sensors = recipe.sensors
+    for f in range(frames):
+        # The same noise draws for every robot (common random numbers): streams 8 and 9 per frame.
+        meas_angles = sensors.read_angles(plant.theta)
+        meas_act = np.stack([sensors.read_tensions(np.random.default_rng([seed, 8, f]), a) for a in plant.actuator])
+        meas_joint = np.stack(  # the oracle's load cells
+            [sensors.read_tensions(np.random.default_rng([seed, 9, f]), j) for j in plant.joint_side]
+        )
+        for b, (est, c) in enumerate(zip(estimators, ctrl)):
+            estimate[b, f] = est.step(meas_angles[b], meas_act[b], meas_joint[b])
+            command[b, f] = c.command(ref[f], meas_angles[b], meas_act[b], estimate[b, f])
+        angles[:, f], joint_side[:, f], sigma[:, f] = meas_angles, plant.joint_side, plant.sigma
+        plant.advance(command[:, f], period)
+    return ClosedLoopRun(
+        test=test,
+        estimators=[est.name for est in estimators],
+        t=t,
+        direction=direction,
+        ref=ref,
+        angles=angles,
+        joint_side=joint_side,
+        estimate=estimate,
+        command=command,
+        sigma=sigma,
+        seed=int(seed),
+    )
+
+
+def loop_metrics(run: ClosedLoopRun, estimator: int, loop: int, band_deg: float = 0.5) -> dict:
+    """Table III's metrics of one estimator's loop 1 (step) or 2 (return).
+
+    Rise time is the mean over the stepped joints of the 10-90 % rise of the angle projected on
+    the step direction; settling time is when the last stepped joint enters the ``band_deg``
+    band for good (the regime is settled when every stepped joint is); RMS error [deg] is over
+    the loop's samples, both axes and the stepped joints, against the shaped reference.
+    ``None`` where a joint never rises or never settles.
+    """
+    win = run.loop_window(loop)
+    t = run.t[win] - run.t[win][0]
+    idx = np.asarray(run.test.joints) - 1
+    amp = run.test.amplitude_deg
+    start, target = (0.0, amp) if loop == 1 else (amp, 0.0)
+    y = np.rad2deg(run.angles[estimator][win][:, idx] @ run.direction)  # (F, joints)
+    per_joint: list[StepMetrics] = [step_metrics(t, y[:, j], start, target, band_deg) for j in range(len(idx))]
+    rises = [m.rise_s for m in per_joint]
+    settles = [m.settle_s for m in per_joint]
+    ref = np.rad2deg(run.ref[win][:, idx])
+    return {
+        "rise_s": None if None in rises else float(np.mean(rises)),
+        "settle_s": None if None in settles else float(np.max(settles)),
+        "rms_deg": rms_error(np.rad2deg(run.angles[estimator][win][:, idx]), ref),
+    }

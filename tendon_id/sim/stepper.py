@@ -1,0 +1,135 @@
+"""The truth transmission one instant at a time, with its state carried: the closed loop's plant.
+
+:func:`~tendon_id.sim.transmit` runs a whole logged block, vectorised over time.  In closed loop
+the next instant's actuator tension depends on the last one's joint side, so time cannot be
+vectorised; :class:`TransmissionStepper` runs the same physics one instant at a time,
+vectorised over a batch of robots, sets and tendons.  It shares the wraps and the capstan
+exponent with ``transmit`` (:class:`~tendon_id.sim.transmission.GuideWraps`,
+:func:`~tendon_id.sim.transmission.guide_exponent`); its two states are
+
+* the play operator's output per guide (DESIGN §5, Kaneko-style nonsmooth capstan)::
+
+      ln T[k+1](t) = clamp(ln T[k+1](t-), ln T[k](t) - phi, ln T[k](t) + phi)
+
+  which is rate-independent, so stepping it finer than the log's 10 Hz changes nothing on a
+  monotone input, and
+* the viscoelastic element's relaxing part ``z`` (:func:`friction_models.viscoelastic_lag`),
+  stepped exactly at the stepper's own period ``dt``.
+
+A test checks that the stepper and ``transmit`` agree on the same block to rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from friction_models import bending_loss, edges_with_loss, slip_state
+from tendon_id.errors import ConfigError
+from tendon_id.geometry import RobotGeometry
+from tendon_id.sim.effects import Effects
+from tendon_id.sim.transmission import FrictionLaw, GuideWraps, guide_exponent, guide_mu, wear_factors
+
+__all__ = ["STEPPED_EFFECTS", "TransmissionStepper"]
+
+#: Effects the stepper runs.  The others need a motion history (velocity_friction, the motion
+#: driver of stick_slip) or an element population (the smooth edge) that is not stepped yet;
+#: sensor_bias is a terminal load cell's, which a controller does not read.
+STEPPED_EFFECTS = ("contact", "stick_slip", "viscoelastic", "per_tendon_wrap", "guide_wear", "bending_stiffness")
+
+
+class TransmissionStepper:
+    """Truth transmission of a batch of robots, one instant per :meth:`step`.
+
+    Parameters
+    ----------
+    geometry : RobotGeometry
+    friction : FrictionLaw
+    effects : Effects
+        The recipe's effects; each must be in :data:`STEPPED_EFFECTS` (``sensor_bias`` is
+        allowed and has no effect here).
+    dt : float
+        Time between steps [s] (the viscoelastic element's step).
+    batch : int
+        Number of independent robots.
+    """
+
+    def __init__(self, geometry: RobotGeometry, friction: FrictionLaw, effects: Effects, dt: float, batch: int):
+        unsupported = [e for e in effects.enabled if e not in (*STEPPED_EFFECTS, "sensor_bias")]
+        if unsupported:
+            raise ConfigError(
+                f"the closed loop cannot step the effect(s) {', '.join(unsupported)} yet; "
+                f"it steps {', '.join(STEPPED_EFFECTS)} (switch the others off in the recipe)"
+            )
+        ss = effects.get("stick_slip") if "stick_slip" in effects else None
+        if ss is not None and (ss.driver != "tension" or ss.smooth_width > 0):
+            raise ConfigError(
+                "the closed loop steps the sharp, tension-driven play operator only "
+                "(stick_slip.driver = 'tension', smooth_width = 0)"
+            )
+        if dt <= 0:
+            raise ConfigError(f"the stepper's dt must be positive, got {dt} s")
+        self.geometry, self.friction, self.effects = geometry, friction, effects
+        self.dt, self.batch = float(dt), int(batch)
+        self.stick_slip = ss is not None
+        self.visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
+        self.bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
+        self.wear = wear_factors(geometry, effects)
+        self.a_visco = np.exp(-self.dt / self.visco.tau_v) if self.visco is not None else 0.0
+        self.reset()
+
+    def reset(self) -> None:
+        """The next step starts from freshly pretensioned tendons: forward slip, relaxed lag."""
+        n = self.geometry.n_modules
+        self.play = np.zeros((self.batch, n - 1, n, 3))  # play output per guide [ln N]
+        self.z = np.zeros((self.batch, n - 1, n, 3))  # viscoelastic relaxing part [N]
+        self.lo, self.hi = np.zeros_like(self.play), np.zeros_like(self.play)  # the play's edges [ln N]
+        # set j passes guides 1..j-1: guide index g carries set indices g+1.. (DESIGN §1)
+        self._on_path = (np.arange(n)[None, :] > np.arange(n - 1)[:, None]).astype(np.int8)[None, :, :, None]
+        self.started = False
+
+    def step(self, theta: NDArray, actuator: NDArray) -> tuple[NDArray, NDArray]:
+        """Advance one instant.
+
+        Parameters
+        ----------
+        theta : ndarray, shape (B, N, 2)
+            True joint angles [rad].
+        actuator : ndarray, shape (B, N, 3)
+            True actuator-side tensions ``T[1, j, i]`` [N], positive.
+
+        Returns
+        -------
+        joint_side : ndarray, shape (B, N, 3)
+            ``T[j, j, i]`` [N].
+        sigma : ndarray of int8, shape (B, N-1, N, 3)
+            Slip state per guide, set and tendon (0 where the set does not pass the guide).
+        """
+        n = self.geometry.n_modules
+        if theta.shape != (self.batch, n, 2) or actuator.shape != (self.batch, n, 3):
+            raise ConfigError(f"step needs theta ({self.batch}, {n}, 2) and actuator ({self.batch}, {n}, 3)")
+        alpha = GuideWraps(theta, self.geometry, self.effects).every()  # (B, N-1, N, 3) or broadcastable
+        wear = None if self.wear is None else self.wear[:, None, None]
+        phi = guide_exponent(guide_mu(self.friction, alpha, "a guide"), alpha, self.geometry, self.effects, wear)
+        phi = np.broadcast_to(phi, (self.batch, n - 1, n, 3))
+        loss = bending_loss(np.broadcast_to(alpha, phi.shape), self.bend) if self.bend > 0 else None
+        log_t = np.log(actuator)
+        for g in range(n - 1):  # guide g + 1 feeds guide g + 2: the one sequential axis
+            on = slice(g + 1, n)
+            x, ph = log_t[:, on], phi[:, g, on]
+            lo, hi = (x - ph, x + ph) if loss is None else edges_with_loss(x - ph, x + ph, loss[:, g, on])
+            if self.stick_slip:
+                y = lo if not self.started else np.minimum(np.maximum(self.play[:, g, on], lo), hi)
+                self.play[:, g, on] = y
+                self.lo[:, g, on], self.hi[:, g, on] = lo, hi
+            else:
+                y = lo
+            if self.visco is not None:  # z(t) = a z(t-dt) + (1 - a) T(t); starts relaxed (z = T)
+                quasi = np.exp(y)
+                z = quasi if not self.started else self.a_visco * self.z[:, g, on] + (1.0 - self.a_visco) * quasi
+                self.z[:, g, on] = z
+                y = np.log((1.0 - self.visco.kappa) * quasi + self.visco.kappa * z)
+            log_t[:, on] = y
+        sigma = self._on_path * (slip_state(self.play, self.lo, self.hi) if self.stick_slip else np.int8(1))
+        self.started = True
+        return np.exp(log_t), sigma.astype(np.int8)
