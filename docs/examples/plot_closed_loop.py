@@ -1,6 +1,6 @@
 """
 The estimator in closed loop: a step on the simulated robot
-==========================================================
+===========================================================
 
 The paper's last experiment (Section IV-C, Table III, Fig. 6) puts the tension estimator inside
 a 10 Hz hybrid tension and configuration controller and compares how fast the joints settle

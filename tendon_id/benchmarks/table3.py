@@ -18,9 +18,10 @@ import numpy as np
 from tendon_id.benchmarks.jobs import job_runner
 from tendon_id.benchmarks.splits import paper_split
 from tendon_id.benchmarks.tables import model_factory
-from tendon_id.closed_loop import ORACLE, STEP_TESTS, in_loop, loop_metrics, run_step_test
+from tendon_id.closed_loop import ORACLE, STEP_TESTS, in_loop, joint_torque, loop_metrics, run_step_test
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
+from tendon_id.geometry import tendon_azimuths
 from tendon_id.progress import progress_bar
 from tendon_id.zoo.guard import quiet_guard
 
@@ -42,11 +43,14 @@ PAPER_TABLE3 = {
 }
 
 
-def _diagnostics(run, b: int, loop: int, v_max_deg_s: float) -> dict:
+def _diagnostics(run, b: int, loop: int, recipe) -> dict:
     """Why a loop went as it did: the estimate's error at the stepped joints, and their slip states."""
+    psi, hole_radius, v_max_deg_s = tendon_azimuths(recipe.robot), recipe.robot.hole_radius, recipe.v_max_deg_s
     win = run.loop_window(loop)
     idx = np.asarray(run.test.joints) - 1
     err = run.estimate[b][win][:, idx] - run.joint_side[b][win][:, idx]
+    # What the outer loop feels: the joint torque the estimate implies, against the true one.
+    torque_err = joint_torque(err, psi[idx], hole_radius)
     sig = run.sigma[b][win][:, :, idx]  # (F, guides, stepped sets, 3)
     on = np.arange(sig.shape[1])[:, None] < idx[None, :]  # guides each stepped set passes
     states = sig[:, on]  # (F, passages, 3)
@@ -54,6 +58,7 @@ def _diagnostics(run, b: int, loop: int, v_max_deg_s: float) -> dict:
     return {
         "estimate_rmse_n": float(np.sqrt(np.mean(err**2))),
         "estimate_bias_n": float(np.mean(err)),
+        "torque_error_nm": float(np.sqrt(np.mean(np.sum(torque_err**2, axis=-1)))),
         "stick_fraction": float(np.mean(states == 0)),
         "reverse_fraction": float(np.mean(states == -1)),
         "stick_fraction_hold": float(np.mean(states[~move] == 0)),
@@ -75,7 +80,7 @@ def table3_job(recipe_name: str, models: dict, regime: str, seed: int) -> tuple[
                     "loop": loop,
                     "seed": seed,
                     **loop_metrics(run, b, loop),
-                    "why": _diagnostics(run, b, loop, recipe.v_max_deg_s),
+                    "why": _diagnostics(run, b, loop, recipe),
                 }
             )
     return rows, run.traces()
@@ -189,7 +194,7 @@ def format_table3(result: dict) -> str:
         f"table3 ({result['preset']} preset, {result['recipe']}, {result['repeats']} seeds, "
         f"{result['seconds']:.0f} s): rise / settle on ±0.5° [s], RMS [°]",
         f"{'regime':12s} {'estimator':18s} loop  {'rise':>10s} {'settle':>10s} {'rms':>10s}   paper (rise settle rms)"
-        "   est. err [N]  stick",
+        "   est. err [N]  torque err [N m]  stick",
     ]
     for r in result["rows"]:
         p = r["paper"]
@@ -197,7 +202,8 @@ def format_table3(result: dict) -> str:
         lines.append(
             f"{r['regime']:12s} {r['estimator']:18s} {r['loop']:4d}  {_fmt(r['rise_s'], r['rise_s_sd'])} "
             f"{_fmt(r['settle_s'], r['settle_s_sd'])} {_fmt(r['rms_deg'], r['rms_deg_sd'])}   {paper:22s}"
-            f"   {r['why']['estimate_rmse_n']:8.1f}  {r['why']['stick_fraction']:.2f}"
+            f"   {r['why']['estimate_rmse_n']:8.1f}  {r['why']['torque_error_nm']:12.3f}  "
+            f"{r['why']['stick_fraction']:.2f}"
         )
     for g in result.get("guards", []):
         if g.get("worse"):

@@ -60,7 +60,7 @@ def _cell(r: dict, key: str) -> str:
     v = r[key]
     if v is None:
         return f"never ({r[f'{key}_reached']}/{r['seeds']} seeds)"
-    return f"{v:.2f} ± {r[f'{key}_sd']:.2f}"
+    return f"{v:.2f}\u00a0±\u00a0{r[f'{key}_sd']:.2f}"  # no-break spaces: one line per cell
 
 
 def write_table3_page(
@@ -93,6 +93,7 @@ def write_table3_page(
             + [
                 f"{r['why']['estimate_rmse_n']:.1f}",
                 f"{r['why']['estimate_bias_n']:+.1f}",
+                f"{r['why']['torque_error_nm']:.3f}",
                 f"{r['why']['stick_fraction']:.2f}",
             ]
         )
@@ -110,13 +111,16 @@ def write_table3_page(
             "paper RMS",
             "estimate RMSE [N]",
             "estimate bias [N]",
+            "torque error [N m]",
             "stick fraction",
         ],
         rows,
     )
     page.paragraph(
-        "The last three columns say why: the estimator's joint-side error at the stepped joints during the loop "
-        "(against the simulator's truth), and the fraction of the stepped sets' guide passages in stick.",
+        "The last four columns say why: the estimator's joint-side error at the stepped joints during the loop "
+        "(against the simulator's truth), the RMS error of the joint torque that estimate implies (what the "
+        "configuration loop feels: a bias common to a joint's three tendons exerts none), and the fraction "
+        "of the stepped sets' guide passages in stick.",
         cls="note",
     )
     guards = [g for g in result.get("guards", []) if g.get("worse")]

@@ -16,6 +16,7 @@ def _run(seed, settle, estimator="capstan-nonsmooth"):
     why = {
         "estimate_rmse_n": 1.0,
         "estimate_bias_n": 0.0,
+        "torque_error_nm": 0.1,
         "stick_fraction": 0.1,
         "reverse_fraction": 0.0,
         "stick_fraction_hold": 0.1,
