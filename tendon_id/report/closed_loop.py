@@ -59,7 +59,9 @@ def step_figure(traces: dict, regime: str, rows: list[dict] | None = None):
 def _cell(r: dict, key: str) -> str:
     v = r[key]
     if v is None:
-        return f"never ({r[f'{key}_reached']}/{r['seeds']} seeds)"
+        return f"never ({r[f'{key}_reached']}/{r['seeds']} seeds)" if r["seeds"] > 1 else "never"
+    if r["seeds"] == 1:  # one seed has no spread to show
+        return f"{v:.2f}"
     return f"{v:.2f}\u00a0±\u00a0{r[f'{key}_sd']:.2f}"  # no-break spaces: one line per cell
 
 
@@ -72,7 +74,11 @@ def write_table3_page(
         "Each estimator drives its own simulated robot (joint dynamics at 1 kHz through the recipe's truth "
         "transmission, stick/slip state carried) in the paper's step-and-return tests, with controller gains "
         "tuned once for the oracle. Rise is 10-90 % of the step, settling is on the ±0.5° band, RMS is the "
-        f"tracking error; mean ± sd over {result['repeats']} seeds (step direction, sensor noise)."
+        + (
+            f"tracking error; mean ± sd over {result['repeats']} seeds (step direction, sensor noise)."
+            if result["repeats"] > 1
+            else "tracking error; one seed (step direction, sensor noise)."
+        )
     )
     for regime in result["traces"]:
         page.figure(
@@ -89,7 +95,7 @@ def write_table3_page(
         p = r["paper"]
         rows.append(
             [r["regime"], r["estimator"], r["loop"], _cell(r, "rise_s"), _cell(r, "settle_s"), _cell(r, "rms_deg")]
-            + ([p["rise_s"], p["settle_s"], p["rms_deg"]] if p else ["-", "-", "-"])
+            + [f"{p['rise_s']:.2f} / {p['settle_s']:.2f} / {p['rms_deg']:.2f}" if p else "-"]
             + [
                 f"{r['why']['estimate_rmse_n']:.1f}",
                 f"{r['why']['estimate_bias_n']:+.1f}",
@@ -106,13 +112,11 @@ def write_table3_page(
             "rise [s]",
             "settle [s]",
             "RMS [°]",
-            "paper rise",
-            "paper settle",
-            "paper RMS",
+            "paper: rise / settle / RMS",
             "estimate RMSE [N]",
             "estimate bias [N]",
             "torque error [N m]",
-            "stick fraction",
+            "stick",
         ],
         rows,
     )
