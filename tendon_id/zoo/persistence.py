@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,9 @@ def load_model(path: str | os.PathLike) -> Estimator:
     Raises
     ------
     ConfigError
-        Naming the folder, if it holds no model or an unknown one.
+        Naming the file, if the folder holds no model, an unknown one, or files that are not
+        what ``save`` writes: truncated or foreign JSON, an ``arrays.npz`` that is not a zip of
+        plain arrays (a pickle, object arrays: never loaded), or arrays the model cannot take.
     """
     folder = Path(path)
     doc_path = folder / "model.json"
@@ -35,8 +38,27 @@ def load_model(path: str | os.PathLike) -> Estimator:
         raise ConfigError(f"{doc_path}: unsupported model format {doc.get('format')!r}")
     cls = model_class(doc.get("model", ""))
     arrays_path = folder / "arrays.npz"
-    arrays = {}
-    if arrays_path.is_file():
-        with np.load(arrays_path, allow_pickle=False) as npz:
-            arrays = {k: npz[k] for k in npz.files}
-    return cls.from_saved(doc.get("params", {}), doc.get("state", {}), arrays)
+    arrays = _read_arrays(arrays_path) if arrays_path.is_file() else {}
+    try:
+        return cls.from_saved(doc.get("params", {}), doc.get("state", {}), arrays)
+    except KeyError as exc:
+        missing = "arrays.npz is missing" if not arrays_path.is_file() else f"it has no array {exc.args[0]!r}"
+        raise ConfigError(f"{arrays_path}: {missing}, which a saved {doc.get('model')} model needs") from None
+    except ConfigError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any failure to rebuild from these files is bad input
+        reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
+        raise ConfigError(
+            f"{folder}: its model.json and arrays.npz do not make a {doc.get('model')} model ({reason})"
+        ) from None
+
+
+def _read_arrays(path: Path) -> dict[str, np.ndarray]:
+    """Plain arrays of an ``.npz``; a pickle or an object array is refused, never loaded."""
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files}
+    except ValueError:  # numpy's refusal of pickled data and of object arrays
+        raise ConfigError(f"{path}: holds pickled or object data, which tendon-id never loads") from None
+    except (zipfile.BadZipFile, EOFError, OSError) as exc:
+        raise ConfigError(f"{path}: not a readable .npz of arrays ({type(exc).__name__}: {exc})") from None

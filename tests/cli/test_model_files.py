@@ -1,0 +1,72 @@
+"""A model folder is input too: a tampered or foreign one exits 2 with one line naming the file (issue 19)."""
+
+import json
+import pickle
+import shutil
+
+import numpy as np
+import pytest
+
+from tendon_id.cli import main
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    root = tmp_path_factory.mktemp("models")
+    data = root / "d.parquet"
+    assert main(["simulate", "--protocol", "posterior-6", "--frames", "300", "--seed", "3", "--out", str(data)]) == 0
+    assert main(["fit", "capstan-contact", "--data", str(data), "--out", str(root / "cap")]) == 0
+    assert main(["fit", "mlp", "--data", str(data), "--set", 'preset="tiny"', "--out", str(root / "mlp")]) == 0
+    return root
+
+
+def _truncate(path, keep):
+    path.write_bytes(path.read_bytes()[:keep])
+
+
+def _format(folder, version):
+    doc = json.loads((folder / "model.json").read_text())
+    doc["format"] = version
+    (folder / "model.json").write_text(json.dumps(doc))
+
+
+CASES = {
+    "missing model.json": ("cap", lambda f: (f / "model.json").unlink(), "no model.json"),
+    "missing arrays.npz": ("cap", lambda f: (f / "arrays.npz").unlink(), "arrays.npz is missing"),
+    "truncated JSON": ("cap", lambda f: _truncate(f / "model.json", 40), "not valid JSON"),
+    "unknown format version": ("cap", lambda f: _format(f, 99), "unsupported model format 99"),
+    "a pickle for arrays": (
+        "cap",
+        lambda f: (f / "arrays.npz").write_bytes(pickle.dumps({"A": 1})),
+        "never loads",
+    ),
+    "an object array": (
+        "cap",
+        lambda f: np.savez(f / "arrays.npz", A=np.array([object()] * 3, dtype=object), B=np.ones((1, 3))),
+        "never loads",
+    ),
+    "a truncated npz": ("cap", lambda f: _truncate(f / "arrays.npz", 50), "not a readable .npz"),
+    "foreign safetensors": (
+        "mlp",
+        lambda f: np.savez(f / "arrays.npz", weights_safetensors=np.frombuffer(b"not safetensors", dtype=np.uint8)),
+        "do not make a mlp model",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_tampered_model_folder_exits_2_naming_the_file(saved, tmp_path, capsys, case):
+    src, tamper, needle = CASES[case]
+    folder = tmp_path / "model"
+    shutil.copytree(saved / src, folder)
+    tamper(folder)
+    code = main(["evaluate", "--model", str(folder), "--data", str(saved / "d.parquet")])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert needle in err and str(folder) in err and "Traceback" not in err and "internal error" not in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_an_untampered_folder_still_loads(saved, capsys):
+    for name in ("cap", "mlp"):
+        assert main(["evaluate", "--model", str(saved / name), "--data", str(saved / "d.parquet")]) == 0
