@@ -358,6 +358,14 @@ class CapstanModel(TransmissionModel):
         self.calibration_ = state.get("calibration", {})
         self.A_ = np.asarray(arrays["A"], dtype=float)
         self.B_ = np.asarray(arrays["B"], dtype=float)
+        rows = (1, self.n_modules_ - 1)  # a tied law, or one per guide
+        if self.A_.shape != self.B_.shape or self.A_.ndim != 2 or self.A_.shape[1] != 3 or self.A_.shape[0] not in rows:
+            raise ConfigError(
+                f"arrays A {self.A_.shape} and B {self.B_.shape} do not fit a {self.n_modules_}-module capstan law: "
+                f"both need shape (1, 3) when tied or ({self.n_modules_ - 1}, 3) per guide"
+            )
+        if not (np.all(np.isfinite(self.A_)) and np.all(np.isfinite(self.B_))):
+            raise ConfigError("arrays A and B hold NaN or inf")
 
 
 def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[CapstanModel]:

@@ -44,8 +44,8 @@ def load_model(path: str | os.PathLike) -> Estimator:
     except KeyError as exc:
         missing = "arrays.npz is missing" if not arrays_path.is_file() else f"it has no array {exc.args[0]!r}"
         raise ConfigError(f"{arrays_path}: {missing}, which a saved {doc.get('model')} model needs") from None
-    except ConfigError:
-        raise
+    except ConfigError as exc:  # the model's own check of what it was handed: name the folder
+        raise ConfigError(f"{folder}: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - any failure to rebuild from these files is bad input
         reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
         raise ConfigError(

@@ -45,6 +45,11 @@ CASES = {
         lambda f: np.savez(f / "arrays.npz", A=np.array([object()] * 3, dtype=object), B=np.ones((1, 3))),
         "never loads",
     ),
+    "arrays of the wrong shape": (
+        "cap",
+        lambda f: np.savez(f / "arrays.npz", A=np.ones((2, 5)), B=np.ones((1, 3))),
+        "do not fit a 12-module capstan law",
+    ),
     "a truncated npz": ("cap", lambda f: _truncate(f / "arrays.npz", 50), "not a readable .npz"),
     "foreign safetensors": (
         "mlp",
@@ -70,3 +75,12 @@ def test_a_tampered_model_folder_exits_2_naming_the_file(saved, tmp_path, capsys
 def test_an_untampered_folder_still_loads(saved, capsys):
     for name in ("cap", "mlp"):
         assert main(["evaluate", "--model", str(saved / name), "--data", str(saved / "d.parquet")]) == 0
+
+
+def test_a_model_for_another_robot_size_exits_2(saved, tmp_path, capsys):
+    two = tmp_path / "rig.parquet"
+    assert main(["simulate", "--protocol", "single-passage", "--frames", "200", "--out", str(two)]) == 0
+    capsys.readouterr()
+    code = main(["evaluate", "--model", str(saved / "cap"), "--data", str(two)])
+    err = capsys.readouterr().err
+    assert code == 2 and "12 modules" in err and "Traceback" not in err
