@@ -21,6 +21,8 @@ from tendon_id.report.comparison import add_comparison
 from tendon_id.report.identifiability import write_report
 from tendon_id.report.summary import summary_page
 
+#: How the demo's models are labelled on its page.
+LABELS = {"capstan-nonsmooth": "capstan-nonsmooth", "pg-chtc": "PG-CHTC (fast)", "pg-chtc-ns": "PG-CHTC-NS (fast)"}
 #: Frames per protocol shown in the recording summary.
 DEMO_FRAMES = {"terminal-only": 5000, "posterior-3": 5000, "posterior-6": 3000, "planned-paths": 5000}
 
@@ -47,13 +49,12 @@ def write_diagnosis(base, split, path: Path, *, progress: bool | None = None) ->
 
 
 def write_closed_loop(recipe: str, fitted: dict, path: Path, *, progress: bool | None = None) -> Path:
-    """The posterior-3 step test (one seed) with the demo's models and the oracle in the loop."""
+    """The posterior-3 step test (one seed) with the demo's models (by zoo name) and the oracle in the loop."""
     from tendon_id.benchmarks.table3 import closed_loop_tests
     from tendon_id.report.closed_loop import write_table3_page
 
     t0 = time.perf_counter()
-    names = {"capstan-nonsmooth": "capstan-nonsmooth", "PG-CHTC (fast)": "pg-chtc", "PG-CHTC-NS (fast)": "pg-chtc-ns"}
-    models = {"oracle": None, **{names[k]: m for k, m in fitted.items()}}
+    models = {"oracle": None, **fitted}
     result = closed_loop_tests(recipe, models, [0], ["posterior-3"], progress=progress)
     result.update(recipe=recipe, preset="fast", seconds=time.perf_counter() - t0, fit_seconds=0.0)
     return write_table3_page(result, path, made_by="tendon-id demo (one seed; the full table: benchmark table3)")
@@ -95,15 +96,15 @@ def run_demo(
     page = summary_page(recs, title=f"tendon-id demo: {recs[0].meta.get('recipe', recipe)}")
     if models:
         split = paper_split(recipe, 0, progress=progress)
-        fitted = {
+        fitted = {  # by zoo name
             "capstan-nonsmooth": zoo.make("capstan-nonsmooth").fit(split.calibration),
-            "PG-CHTC (fast)": zoo.make("pg-chtc", preset="fast", progress=progress).fit(split.calibration),
-            "PG-CHTC-NS (fast)": zoo.make("pg-chtc-ns", preset="fast", progress=progress).fit(split.calibration),
+            "pg-chtc": zoo.make("pg-chtc", preset="fast", progress=progress).fit(split.calibration),
+            "pg-chtc-ns": zoo.make("pg-chtc-ns", preset="fast", progress=progress).fit(split.calibration),
         }
         add_comparison(
             page,
             {p: split.test[p] for p in TEST_PROTOCOLS},
-            fitted,
+            {LABELS[name]: model for name, model in fitted.items()},
             "Capstan-nonsmooth against PG-CHTC and PG-CHTC-NS on held-out trajectories (paper Table II split)",
         )
         diag = write_diagnosis(fitted["capstan-nonsmooth"], split, out / "diagnosis.html", progress=progress)

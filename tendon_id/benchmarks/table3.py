@@ -45,7 +45,7 @@ PAPER_TABLE3 = {
 
 def _diagnostics(run, b: int, loop: int, recipe) -> dict:
     """Why a loop went as it did: the estimate's error at the stepped joints, and their slip states."""
-    psi, hole_radius, v_max_deg_s = tendon_azimuths(recipe.robot), recipe.robot.hole_radius, recipe.v_max_deg_s
+    psi, hole_radius = tendon_azimuths(recipe.robot), recipe.robot.hole_radius
     win = run.loop_window(loop)
     idx = np.asarray(run.test.joints) - 1
     err = run.estimate[b][win][:, idx] - run.joint_side[b][win][:, idx]
@@ -54,7 +54,7 @@ def _diagnostics(run, b: int, loop: int, recipe) -> dict:
     sig = run.sigma[b][win][:, :, idx]  # (F, guides, stepped sets, 3)
     on = np.arange(sig.shape[1])[:, None] < idx[None, :]  # guides each stepped set passes
     states = sig[:, on]  # (F, passages, 3)
-    move = run.t[win] - run.t[win][0] < 1.875 * run.test.amplitude_deg / v_max_deg_s + 0.5  # the move, then hold
+    move = run.t[win] - run.t[win][0] < run.test.move_s(recipe.v_max_deg_s) + 0.5  # the move, then hold
     return {
         "estimate_rmse_n": float(np.sqrt(np.mean(err**2))),
         "estimate_bias_n": float(np.mean(err)),
@@ -152,7 +152,7 @@ def table3(
     """
     if repeats < 1:
         raise ConfigError("--repeats must be at least 1")
-    unknown = [e for e in estimators if e != ORACLE and e not in TABLE3_ESTIMATORS]
+    unknown = [e for e in estimators if e not in TABLE3_ESTIMATORS]
     if unknown:
         raise ConfigError(f"table3 compares {', '.join(TABLE3_ESTIMATORS)}; unknown: {', '.join(unknown)}")
     t0 = time.perf_counter()

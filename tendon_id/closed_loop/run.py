@@ -18,6 +18,7 @@ from tendon_id.closed_loop.metrics import StepMetrics, rms_error, step_metrics
 from tendon_id.closed_loop.plant import JointDynamics, Plant
 from tendon_id.errors import ConfigError
 from tendon_id.sim import Recipe
+from tendon_id.sim.motion import min_jerk_at, min_jerk_duration
 
 __all__ = ["STEP_TESTS", "ClosedLoopRun", "StepTest", "loop_metrics", "run_step_test"]
 
@@ -51,16 +52,15 @@ class StepTest:
     hold_s: float = 12.0
     lead_s: float = 3.0
 
+    def move_s(self, v_max_deg_s: float) -> float:
+        """Duration of each move [s] at the peak speed ``v_max_deg_s`` [deg/s]."""
+        return min_jerk_duration(self.amplitude_deg, v_max_deg_s)
+
 
 STEP_TESTS = {
     "posterior-3": StepTest("posterior-3", (10, 11, 12), 5.0),
     "posterior-6": StepTest("posterior-6", (7, 8, 9, 10, 11, 12), 3.0),
 }
-
-
-def _min_jerk(s: NDArray) -> NDArray:
-    s = np.clip(s, 0.0, 1.0)
-    return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
 
 
 @dataclass(frozen=True)
@@ -177,8 +177,8 @@ def run_step_test(
     frames = int(round((test.lead_s + 2 * test.hold_s) / period))
     t = np.arange(frames) * period
     amp = np.deg2rad(test.amplitude_deg)
-    move_s = 1.875 * test.amplitude_deg / recipe.v_max_deg_s  # minimum jerk peaks at v_max
-    profile = amp * (_min_jerk((t - test.lead_s) / move_s) - _min_jerk((t - test.lead_s - test.hold_s) / move_s))
+    move_s = test.move_s(recipe.v_max_deg_s)
+    profile = amp * (min_jerk_at((t - test.lead_s) / move_s) - min_jerk_at((t - test.lead_s - test.hold_s) / move_s))
     ref = np.zeros((frames, n, 2))
     ref[:, np.asarray(test.joints) - 1] = profile[:, None, None] * direction
 

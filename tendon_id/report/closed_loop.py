@@ -80,13 +80,11 @@ def write_table3_page(
             else "tracking error; one seed (step direction, sensor noise)."
         )
     )
+    first_seed = min(r["seed"] for r in result["runs"])  # the seed whose traces the result keeps
+    first_runs = [r for r in result["runs"] if r["seed"] == first_seed]
     for regime in result["traces"]:
         page.figure(
-            step_figure(
-                result["traces"],
-                regime,
-                [r for r in result["runs"] if r["seed"] == min(x["seed"] for x in result["runs"])],
-            ),
+            step_figure(result["traces"], regime, first_runs),
             f"{regime}, the first seed: PG-CHTC in blue, the Capstan baseline in red; dotted verticals mark "
             "their settling times, the dotted horizontal the commanded amplitude.",
         )

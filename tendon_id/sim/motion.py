@@ -6,19 +6,29 @@ import numpy as np
 from numpy.typing import NDArray
 
 
-def min_jerk(n: int) -> NDArray[np.float64]:
-    """Minimum-jerk profile ``s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5`` on ``n`` samples in (0, 1].
+def min_jerk_at(tau: NDArray) -> NDArray[np.float64]:
+    """Minimum-jerk profile ``s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5``, held at 0 before and 1 after the move.
 
     Flash & Hogan, "The coordination of arm movements", J. Neurosci. 5(7),
     1985.  Its peak speed is ``1.875`` times the mean speed.
     """
-    tau = np.arange(1, n + 1) / n
+    tau = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0)
     return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+
+
+def min_jerk(n: int) -> NDArray[np.float64]:
+    """:func:`min_jerk_at` on ``n`` samples in (0, 1]."""
+    return min_jerk_at(np.arange(1, n + 1) / n)
+
+
+def min_jerk_duration(delta: float, v_max: float) -> float:
+    """Duration [s] of a minimum-jerk move of size ``delta`` whose peak speed is ``v_max`` (same units per s)."""
+    return 1.875 * abs(delta) / v_max
 
 
 def move_frames(delta: float, v_max: float, dt: float, min_s: float = 0.5) -> int:
     """Frames for a minimum-jerk move of size ``delta`` [rad] whose peak speed stays below ``v_max`` [rad/s]."""
-    duration = max(min_s, 1.875 * abs(delta) / v_max)
+    duration = max(min_s, min_jerk_duration(delta, v_max))
     return max(1, int(np.ceil(duration / dt)))
 
 

@@ -35,6 +35,10 @@ def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypa
     page = (tmp_path / "out" / "summary.html").read_text()
     assert "PG-CHTC" in page and "capstan-nonsmooth" in page and "intermediate joints RMSE" in page
     assert "PG-CHTC-NS" in page
+    # the closed loop's page (Fig. 6), linked from the summary
+    assert 'href="closed_loop.html"' in page
+    loop = (tmp_path / "out" / "closed_loop.html").read_text()
+    assert "pg-chtc" in loop and "oracle" in loop and 'src="data:image/png;base64,' in loop
     # each learned cascade's guard: its validation RMSE against its calibrated prior's
     assert page.count("for its calibrated prior capstan-nonsmooth") == 2
     assert len(re.findall(r'src="data:image/png;base64,', page)) == 1 + 2 * 4 + 2
