@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from friction_models.scan import clamp_prefix
+from friction_models.kernels import play_scan
 
 
 @dataclass(frozen=True)
@@ -113,6 +113,8 @@ def _reset_with_y0(reset: ArrayLike | None, n: int) -> NDArray[np.bool_]:
 def play_output(lo: NDArray, hi: NDArray, reset: NDArray, y0: ArrayLike | None = None) -> NDArray[np.float64]:
     """The play operator's output alone, without checks: the inner loop of calibration.
 
+    Compiled where numba is installed, else the clamp scan (:mod:`friction_models.kernels`).
+
     Parameters
     ----------
     lo, hi : ndarray, shape (T, ...)
@@ -122,10 +124,8 @@ def play_output(lo: NDArray, hi: NDArray, reset: NDArray, y0: ArrayLike | None =
     y0 : array_like, optional
         Output before frame 0.
     """
-    step_hi = np.where(reset.reshape((-1,) + (1,) * (lo.ndim - 1)), lo, hi)  # a reset is the constant map y = lo
-    p_lo, p_hi = clamp_prefix(lo, step_hi)
     start = lo[0] if y0 is None else np.broadcast_to(np.asarray(y0, dtype=float), lo.shape[1:])
-    return np.minimum(np.maximum(start, p_lo), p_hi)
+    return play_scan(lo, hi, np.asarray(reset, dtype=bool), start)
 
 
 def play_operator(

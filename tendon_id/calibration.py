@@ -154,6 +154,7 @@ def _fit_per_tendon(problem: LawProblem, smooth: NDArray, rng: np.random.Generat
     model, inputs, layout, keep, values = problem.model, problem.inputs, problem.layout, problem.keep, problem.values
     theta = smooth.copy()
     status, n_eval, sse_sum = [], 0, 0.0
+    kept = slice(None) if keep.all() else keep  # a slice is a view: no copy per evaluation
     log_label = np.log(inputs.terminal)
     last = np.array([inputs.n_modules - 1])
     zlb, zub = layout.free_bounds()
@@ -162,10 +163,11 @@ def _fit_per_tendon(problem: LawProblem, smooth: NDArray, rng: np.random.Generat
         # Fixed: no free block parameters, so the law-free part of the exponent is computed once.
         terms = model.exponent_terms(inputs, values, sets=last, tendons=np.array([i]))
 
-        def sse(x, i=i, terms=terms):
+        def sse(x, i=i, terms=terms, label=log_label[kept, i]):
             A, B = layout.split(x)
             pred = problem.terminal_reading(A[:, None], B[:, None], tendons=np.array([i]), terms=terms)[:, 0]
-            return float(np.sum((np.log(pred[keep]) - log_label[keep, i]) ** 2))
+            # Written as before the compiled scan: the optimiser's path depends on the last bits.
+            return float(np.sum((np.log(pred[kept]) - label) ** 2))
 
         x_starts = _starts(sse, layout, theta[:, i], rng, int(model.n_starts), smooth_first=smooth_first)
         outs = [

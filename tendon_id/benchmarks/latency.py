@@ -18,7 +18,10 @@ distance of batch inference itself from a float64 run, and on a ``fast`` model t
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -108,6 +111,36 @@ def _stream(stream, angles: np.ndarray, actuator: np.ndarray) -> tuple[np.ndarra
     return np.stack(outs), float(np.median(times[10:]) * 1e3)
 
 
+@contextlib.contextmanager
+def busy_core():
+    """A competing process that keeps one core busy (a pure-Python loop) while the block runs.
+
+    A robot's control computer is never idle; this is the simplest stand-in for the other
+    work on it.
+    """
+    proc = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.3)  # let it start and take its core
+        yield proc
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def thread_load_table(model, angles: np.ndarray, actuator: np.ndarray, default_threads: int) -> list[dict]:
+    """Streaming latency of the native engine on 1 and 2 threads, idle and beside a busy core, in one run.
+
+    Returns rows ``{"load": "idle" | "one core busy", "threads", "ms_median", "default"}``.
+    """
+    rows = []
+    for load in ("idle", "one core busy"):
+        with busy_core() if load != "idle" else contextlib.nullcontext():
+            for threads in (1, 2):
+                _, ms = _stream(model.streamer("native", threads=threads), angles, actuator)
+                rows.append({"load": load, "threads": threads, "ms_median": ms, "default": threads == default_threads})
+    return rows
+
+
 def float64_batch(model: PGCHTC, rec) -> np.ndarray:
     """Batch inference of ``rec`` (one trajectory) in float64: how far float32 rounding alone moves it."""
     cin, _, _ = model.cascade_inputs([rec])
@@ -167,6 +200,7 @@ def latency(
     if native_threads and native_threads > 1:  # the helper thread's gain, measured in the same run
         streamed_one, one_ms = _stream(model.streamer("native", threads=1), angles, act)
         same_bits = bool(np.array_equal(streamed_one, streamed))
+    load_rows = thread_load_table(model, angles, act, native_threads) if default.engine_name == "native" else []
     rel = lambda a, b: float(np.max(np.abs(a / b - 1.0)))  # noqa: E731
     ns = untrained_ns_model(rec, preset, seed)
     ns_streamed, ns_ms = _stream(ns.streamer(), angles, act)
@@ -212,6 +246,7 @@ def latency(
         "native_threads": native_threads,
         "native_one_thread_ms_median": one_ms,
         "native_threads_same_bits": same_bits,
+        "thread_load": load_rows,
         "frames": first.n_frames,
         "naive_frames": len(naive_times),
         "threads": torch.get_num_threads(),
@@ -235,6 +270,13 @@ def format_latency(r: dict) -> str:
             f"({r['native_one_thread_ms_median'] / r['streaming_ms_median']:.2f}x slower; "
             f"{'same bits' if r['native_threads_same_bits'] else 'DIFFERENT bits'})"
         )
+    if r.get("thread_load"):
+        cells = ", ".join(
+            f"{row['load']} {row['threads']} thread{'s' if row['threads'] > 1 else ''} {row['ms_median']:.2f} ms"
+            + (" (default)" if row["default"] else "")
+            for row in r["thread_load"]
+        )
+        lines.append(f"  native engine, idle and beside a busy core: {cells}")
     if r["engine"] != "torch":
         lines.append(
             f"  streaming, torch engine: {r['torch_streaming_ms_median']:.2f} ms/frame "

@@ -118,10 +118,10 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
     rng = np.random.default_rng(settings.seed + 1000)
     layout = problem.layout
     C, d = layout.constraints()
-    out = []
-    for j in range(2, problem.n_guides + 1):
+    joints = list(range(2, problem.n_guides + 1))
+    Ms, bs, thetas = [], [], []
+    for j in joints:
         Xj = problem.joint_design(j)
-        draws = []
         for i in range(3):
             t1 = problem.inputs.actuator[:, j - 1, i]
             label = truth[:, j - 1, i] + rng.normal(0.0, problem.noise_n, size=len(t1))
@@ -134,8 +134,13 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
             scale = np.sqrt(np.r_[problem.weight[:, i], wj] / np.mean(problem.weight[:, i]))
             X_all = np.vstack([problem.design, Xj]) * scale[:, None]
             y_all = np.r_[problem.log_drop[:, i], yj] * scale
-            theta = constrained_lstsq(X_all, y_all, layout, 1e-10).x
-            draws.append(settings.sample(M, b, C, d, theta, layout, settings.seed + i))
-        band = ambiguity_band(problem, draws, frames, seed=settings.seed)
+            Ms.append(M)
+            bs.append(b)
+            thetas.append(constrained_lstsq(X_all, y_all, layout, 1e-10).x)
+    # Every candidate's three laws in one batch of samplers: one stream, seeded by the study's seed.
+    draws = settings.sample(Ms, bs, C, d, thetas, layout, settings.seed)
+    out = []
+    for n, j in enumerate(joints):
+        band = ambiguity_band(problem, draws[3 * n : 3 * n + 3], frames, seed=settings.seed)
         out.append({"joint": j, "band_width_mean": band.mean_width()})
     return out

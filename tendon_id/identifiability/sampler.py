@@ -14,7 +14,7 @@ are drawn in coordinates whitened by the Fisher information, with a floor so tha
 flat directions keep a finite scale, which lets one chain move along a tight
 ``mu(0)`` and a free ``A - B`` alike; during burn-in the map adapts to the chains'
 spread (which only changes the proposal of directions, not the exact conditional
-draws along them).  Many chains run at once, vectorised.
+draws along them).  Many chains, and several problems of one layout, run at once, vectorised.
 """
 
 from __future__ import annotations
@@ -72,13 +72,58 @@ def hit_and_run(
     -------
     ndarray, shape (n_chains * kept, p)
     """
-    rng = np.random.default_rng(seed)
     start = np.asarray(start, dtype=float)
-    p = start.shape[-1]
-    ev, V = np.linalg.eigh(0.5 * (M + M.T))
+    return hit_and_run_many(
+        np.asarray(M, dtype=float)[None],
+        np.asarray(b, dtype=float)[None],
+        C,
+        d,
+        start[None],
+        n_chains=n_chains,
+        n_steps=n_steps,
+        thin=thin,
+        seed=seed,
+    )[0]
+
+
+def hit_and_run_many(
+    M: NDArray,
+    b: NDArray,
+    C: NDArray,
+    d: NDArray,
+    start: NDArray,
+    *,
+    n_chains: int = 64,
+    n_steps: int = 600,
+    thin: int = 5,
+    seed: int = 0,
+) -> NDArray[np.float64]:
+    """:func:`hit_and_run` of several problems on one polytope at once (one seeded stream for all).
+
+    A study samples many laws of the same layout (three tendons, and again with each
+    candidate joint's labels); stepping them together pays Python's per-step cost once.
+
+    Parameters
+    ----------
+    M : ndarray, shape (P, p, p)
+    b : ndarray, shape (P, p)
+    C, d : ndarray
+        The polytope shared by the problems.
+    start : ndarray, shape (P, p) or (P, n_chains, p)
+    n_chains, n_steps, thin, seed :
+        As :func:`hit_and_run`.
+
+    Returns
+    -------
+    ndarray, shape (P, n_chains * kept, p)
+    """
+    rng = np.random.default_rng(seed)
+    n_prob, p = b.shape
+    ev, V = np.linalg.eigh(0.5 * (M + np.swapaxes(M, 1, 2)))
     scale = 1.0 / np.sqrt(np.maximum(ev, 0.0) + 1.0 / FLAT_SCALE**2)
-    W = V * scale  # direction map: whitened -> parameter
-    theta = np.broadcast_to(start, (n_chains, p)).copy()
+    W = V * scale[:, None, :]  # direction maps: whitened -> parameter
+    start = np.asarray(start, dtype=float)
+    theta = np.broadcast_to(start if start.ndim == 3 else start[:, None, :], (n_prob, n_chains, p)).copy()
     if np.any(theta @ C.T - d > 1e-9):
         raise ValueError("a start point is outside the polytope")
     kept = []
@@ -88,32 +133,31 @@ def hit_and_run(
         if step in adapt and n_chains > p:
             # Adaptive direction map: the chains' spread (flat directions can be far longer than
             # FLAT_SCALE along the polytope), kept full-rank by the whitened map.
-            cov = np.cov(theta.T) + 1e-6 * (W @ W.T)
-            W = np.linalg.cholesky(0.5 * (cov + cov.T))
-        u = rng.standard_normal((n_chains, p)) @ W.T  # (chains, p)
-        u /= np.linalg.norm(u, axis=1, keepdims=True)
+            cov = np.stack([np.cov(th.T) for th in theta]) + 1e-6 * (W @ np.swapaxes(W, 1, 2))
+            W = np.linalg.cholesky(0.5 * (cov + np.swapaxes(cov, 1, 2)))
+        u = rng.standard_normal((n_prob, n_chains, p)) @ np.swapaxes(W, 1, 2)  # (P, chains, p)
+        u /= np.linalg.norm(u, axis=2, keepdims=True)
         # Chord: C (theta + t u) <= d.
         cu = u @ C.T
-        room = d - theta @ C.T
-        room = np.maximum(room, 0.0)
+        room = np.maximum(d - theta @ C.T, 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = room / cu
-        t_hi = np.min(np.where(cu > 1e-15, ratio, np.inf), axis=1)
-        t_lo = np.max(np.where(cu < -1e-15, ratio, -np.inf), axis=1)
+        t_hi = np.min(np.where(cu > 1e-15, ratio, np.inf), axis=2)
+        t_lo = np.max(np.where(cu < -1e-15, ratio, -np.inf), axis=2)
         # Conditional along the chord: exp(-a t^2 / 2 + c t).
         Mu = u @ M
-        a = np.einsum("cp,cp->c", Mu, u)
-        c = u @ b - np.einsum("cp,cp->c", theta, Mu)
+        a = np.einsum("ncp,ncp->nc", Mu, u)
+        c = np.einsum("ncp,np->nc", u, b) - np.einsum("ncp,ncp->nc", theta, Mu)
         flat = a * (t_hi - t_lo) ** 2 < 1e-8
         sd = 1.0 / np.sqrt(np.where(flat, 1.0, a))
         mean = np.where(flat, 0.0, c / np.where(flat, 1.0, a))
         z = _truncated_standard_normal((t_lo - mean) / sd, (t_hi - mean) / sd, rng)
-        t = np.where(flat, t_lo + rng.uniform(size=n_chains) * (t_hi - t_lo), mean + sd * z)
+        t = np.where(flat, t_lo + rng.uniform(size=(n_prob, n_chains)) * (t_hi - t_lo), mean + sd * z)
         t = np.clip(t, t_lo, t_hi)
-        theta = theta + t[:, None] * u
+        theta = theta + t[..., None] * u
         if step >= burn and (step - burn) % thin == 0:
             kept.append(theta.copy())
-    return np.concatenate(kept, axis=0)
+    return np.concatenate(kept, axis=1)
 
 
 def split_rhat(draws: NDArray, n_chains: int) -> NDArray[np.float64]:

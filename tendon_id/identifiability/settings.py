@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.errors import ConfigError
-from tendon_id.identifiability.sampler import dispersed_starts, hit_and_run
+from tendon_id.identifiability.sampler import dispersed_starts, hit_and_run_many
 
 #: Models the study accepts (``auto`` picks between the two smooth ones).
 MODELS = ("auto", "capstan-contact", "capstan-simple")
@@ -59,12 +60,14 @@ class StudySettings:
         if self.n_steps < 2 * self.thin:
             raise ConfigError("n_steps must be at least twice thin")
 
-    def sample(self, M: NDArray, b: NDArray, C: NDArray, d: NDArray, theta: NDArray, layout, seed: int) -> NDArray:
-        """Draws of one tendon's law under these sampler settings, from chains dispersed around ``theta``.
+    def sample(self, M, b, C: NDArray, d: NDArray, theta, layout, seed: int) -> list[NDArray]:
+        """Draws of several laws of one layout under these sampler settings, from chains dispersed around each.
 
-        The Gaussian ``exp(-theta^T M theta / 2 + b^T theta)`` restricted to ``C theta <= d``
-        (see :func:`~tendon_id.identifiability.sampler.hit_and_run`); returns its draws,
-        shape (kept * n_chains, q).
+        Law ``k`` has the Gaussian ``exp(-theta^T M[k] theta / 2 + b[k]^T theta)`` restricted to
+        ``C theta <= d`` (see :func:`~tendon_id.identifiability.sampler.hit_and_run_many`);
+        ``M`` is (P, q, q), ``b`` and ``theta`` (P, q).  Returns the draws of each, a list of
+        P arrays of shape (kept * n_chains, q).
         """
-        start = dispersed_starts(theta, layout, self.n_chains, seed)
-        return hit_and_run(M, b, C, d, start, n_chains=self.n_chains, n_steps=self.n_steps, thin=self.thin, seed=seed)
+        starts = np.stack([dispersed_starts(th, layout, self.n_chains, seed + k) for k, th in enumerate(theta)])
+        kw = {"n_chains": self.n_chains, "n_steps": self.n_steps, "thin": self.thin}
+        return list(hit_and_run_many(np.asarray(M), np.asarray(b), C, d, starts, seed=seed, **kw))

@@ -127,7 +127,7 @@ def study_tying(problem: IdentifiabilityProblem, settings: StudySettings, rng_se
     the quadratic likelihood, profile likelihoods of every parameter and every group's
     ``mu(0) = A + B``, and hit-and-run draws from dispersed starts with their split R-hat.
     """
-    thetas, sigmas, spectra, profiles, draws, rhats = [], [], [], [], [], []
+    thetas, sigmas, spectra, profiles, quads = [], [], [], [], []
     layout = problem.layout
     C, d = layout.constraints()
     g = problem.n_groups
@@ -161,10 +161,34 @@ def study_tying(problem: IdentifiabilityProblem, settings: StudySettings, rng_se
                     structural=not np.isfinite(sd_e),
                 )
             )
-        draws.append(settings.sample(M, b, C, d, theta, layout, rng_seed + i))
-        rhats.append(float(np.max(split_rhat(draws[-1][:, :g] + draws[-1][:, g:], settings.n_chains))))
+        quads.append((M, b))
         thetas.append(theta)
         sigmas.append(sigma)
         spectra.append(s)
         profiles.append(profs)
+    # The three tendons' laws are sampled together (one stream, seeded by rng_seed).
+    draws = settings.sample([q[0] for q in quads], [q[1] for q in quads], C, d, thetas, layout, rng_seed)
+    rhats = [float(np.max(split_rhat(dr[:, :g] + dr[:, g:], settings.n_chains))) for dr in draws]
     return TyingStudy(problem.tying, problem, thetas, sigmas, spectra, profiles, draws, rhats)
+
+
+def check_learned_inputs(recs, preset: str = "fast") -> None:
+    """Raise :class:`~tendon_id.errors.ConfigError` now if the learned comparison could not train on ``recs``.
+
+    The comparison trains PG-CHTC last, after minutes of analysis; what its fit would refuse (one
+    trajectory, trajectories shorter than the history window) is checked before the analysis starts.
+
+    Parameters
+    ----------
+    recs : sequence of Recording
+    preset : str
+        The PG-CHTC preset of the comparison.
+    """
+    from learners.presets import preset as get_preset
+    from tendon_id.errors import ConfigError
+
+    if sum(len(r.trajectories) for r in recs) < 2:
+        raise ConfigError("--learned: PG-CHTC needs at least two trajectories (one to train on, one to validate)")
+    window = get_preset(preset).unit.window
+    for r in recs:
+        r.check_history_window(window)

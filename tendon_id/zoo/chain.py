@@ -63,7 +63,10 @@ def exponent(mu_law: str, terms: ExponentTerms, A: NDArray, B: NDArray) -> NDArr
     """
     if mu_law == "constant":
         return B[None, :, None, :] * terms.scaled
-    return (A[None, :, None, :] * terms.cos_alpha + B[None, :, None, :]) * terms.scaled
+    phi = A[None, :, None, :] * terms.cos_alpha  # in place from here: calibration calls this thousands of times
+    phi += B[None, :, None, :]
+    phi *= terms.scaled
+    return phi
 
 
 def propagate_chain(
@@ -87,13 +90,22 @@ def propagate_chain(
     if terms is None:
         terms = exponent_terms(blocks, inputs, values, sets, tendons)
     phi = exponent(mu_law, terms, A, B)  # (T, K, S|1, m)
-    log_t = np.log(inputs.actuator[:, sets][:, :, tendons])  # (T, S, m)
-    chain = np.full((inputs.n_frames, n) + log_t.shape[1:], np.nan) if keep_chain else None
+    key = f"log_in:{sets.tobytes().hex()}:{tendons.tobytes().hex()}"
+    log_in = inputs.memo(key, lambda: inputs.log_actuator[:, sets][:, :, tendons])  # (T, S, m)
+    chain = np.full((inputs.n_frames, n) + log_in.shape[1:], np.nan) if keep_chain else None
     if keep_chain:
-        chain[:, 0] = log_t
+        chain[:, 0] = log_in
     edges = [b for b in blocks if b.stage == "edges"]
     prop = step_block(blocks)
     outputs = [b for b in blocks if b.stage == "guide_output"]
+    if prop is not None and not edges and not outputs:
+        series = _series(prop, terms, phi, log_in, sets, values.get(prop.name, {}), keep_chain)
+        if series is not None:
+            final, guides = series
+            if keep_chain:
+                chain[:, 1:] = guides
+            return chain if keep_chain else final
+    log_t = log_in.copy()
     for g in range(n - 1):
         active = sets > g  # set j (index j-1) passes guide k = g + 1 iff k < j
         if not active.any():
@@ -118,6 +130,19 @@ def propagate_chain(
         if keep_chain:
             chain[:, g + 1, active] = y
     return chain if keep_chain else log_t
+
+
+def _series(prop: Block, terms: ExponentTerms, phi: NDArray, log_t: NDArray, sets: NDArray, values: dict, keep: bool):
+    """The whole chain from the step block's :meth:`~Block.propagate_series`, reshaped; None if it has none."""
+    t, s, m = log_t.shape
+    k = phi.shape[1]
+    n_pass = np.repeat(np.minimum(sets, k), m)  # set j (index j - 1) passes the guides k < j
+    flat_phi = np.broadcast_to(phi, (t, k, s, m)).reshape(t, k, s * m)
+    out = prop.propagate_series(log_t.reshape(t, s * m), flat_phi, n_pass, terms.ctx, values, keep)
+    if out is None:
+        return None
+    final, chain = out
+    return final.reshape(t, s, m), None if chain is None else chain.reshape(t, k, s, m)
 
 
 def step_block(blocks: Sequence[Block]) -> Block | None:

@@ -118,6 +118,11 @@ class TransmissionInputs:
         """``cos(alpha_k)``, shape (T, N-1) (cached: calibration evaluates it thousands of times)."""
         return np.cos(self.wrap)
 
+    @cached_property
+    def log_actuator(self) -> NDArray[np.float64]:
+        """``ln T[0, j, i]`` [ln N], shape (T, N, 3) (cached: the chain starts from it at every evaluation)."""
+        return np.log(self.actuator)
+
     @classmethod
     def from_recordings(
         cls, data: Recording | Sequence[Recording], robot: dict | RobotGeometry | None = None

@@ -133,6 +133,19 @@ class Block:
             if cls.effect is not None:
                 EFFECT_BLOCKS[cls.effect] = cls
 
+    def propagate_series(
+        self, log_in: NDArray, phi: NDArray, n_pass: NDArray, ctx, values: dict, keep_chain: bool
+    ) -> tuple[NDArray, NDArray | None] | None:
+        """Optional, for a ``propagate`` block: every guide at once, when no other per-guide block acts.
+
+        ``log_in`` (T, M) enters the first guide, ``phi`` (T, K, M) is each guide's exponent,
+        column ``j`` passes ``n_pass[j]`` guides; returns ``(final (T, M), chain (T, K, M) or
+        None)`` as :func:`friction_models.kernels.play_series`.  The default, None, makes the
+        chain call :meth:`propagate` guide by guide.  Whatever a block returns here must equal
+        what its guide-by-guide steps give.
+        """
+        return None
+
     def initial(self) -> dict[str, float]:
         """Starting values of the block's parameters."""
         return {p: float(getattr(self, p)) for p in self.param_names}

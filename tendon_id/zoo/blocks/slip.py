@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from friction_models import bending_loss, edges_with_loss
+from friction_models.kernels import play_series
 from friction_models.maxwell_slip import maxwell_slip_output
 from friction_models.play_operator import play_output
 from tendon_id.zoo.blocks.base import Block
@@ -27,6 +28,10 @@ class Hysteresis(Block):
 
     def propagate(self, lo: NDArray, hi: NDArray, ctx, values: dict) -> NDArray:
         return play_output(lo, hi, ctx.inputs.reset)
+
+    def propagate_series(self, log_in, phi, n_pass, ctx, values, keep_chain):
+        # One compiled pass over frames for all guides in series, the same bits as guide by guide.
+        return play_series(log_in, phi, n_pass, ctx.inputs.reset, keep_chain)
 
 
 @dataclass(frozen=True)
