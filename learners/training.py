@@ -3,8 +3,10 @@
 Stage 1 pretrains the static backbone ``f_theta`` on single frames (no temporal residual);
 stage 2 freezes it and trains ``g_phi`` on sequence chunks.  Both run the shared loop of
 :mod:`learners.loop`: AdamW with cosine annealing and early stopping on a validation split
-by trajectory, restoring the best weights.  A non-finite loss stops training with a clear
-error (:class:`~learners.loop.TrainingError`, also importable from here).
+by trajectory, restoring the best weights.  A non-finite loss stops a stage cleanly with
+the best weights it had seen, recorded in :attr:`History.stopped` and its epoch log, and a
+:class:`~learners.loop.NonFiniteLossWarning`; only one in a stage's first epoch, with no
+weights to keep, is an error (:class:`~learners.loop.TrainingError`, also importable from here).
 """
 
 from __future__ import annotations
@@ -17,11 +19,11 @@ import torch
 from torch import Tensor
 
 from learners.cascade import Cascade, CascadeInputs
-from learners.loop import LoopSchedule, TrainingError, run_training
+from learners.loop import LoopSchedule, NonFiniteLossWarning, TrainingError, run_training
 from learners.loss import LossWeights, pgchtc_loss
 from learners.presets import TrainConfig
 
-__all__ = ["History", "Sequences", "TrainingError", "fit_feature_norm", "train_two_stage"]
+__all__ = ["History", "NonFiniteLossWarning", "Sequences", "TrainingError", "fit_feature_norm", "train_two_stage"]
 
 
 @dataclass
@@ -69,12 +71,18 @@ class Sequences:
 
 @dataclass
 class History:
-    """Per-epoch losses of both stages."""
+    """Per-epoch losses of both stages.
+
+    ``stopped`` holds a record per stage that a non-finite loss stopped
+    (:attr:`learners.loop.TrainHistory.stopped`, with its ``"stage"``); the stage's log ends
+    with an entry marked ``"non_finite": True``.
+    """
 
     stage1: list = field(default_factory=list)
     stage2: list = field(default_factory=list)
     best_val1: float = math.inf
     best_val2: float = math.inf
+    stopped: list = field(default_factory=list)
 
 
 def _batch_loss(cascade: Cascade, batch: Sequences, weights: LossWeights, residual: bool) -> tuple[Tensor, dict]:
@@ -117,6 +125,7 @@ def _run_stage(
     schedule: LoopSchedule,
     generator: torch.Generator,
     log: list,
+    stopped: list,
     progress=None,
     desc: str = "",
 ) -> float:
@@ -150,6 +159,8 @@ def _run_stage(
         desc=desc,
     )
     log.extend(hist.epochs)
+    if hist.stopped is not None:
+        stopped.append({"stage": desc, **hist.stopped})
     return hist.best_val
 
 
@@ -163,7 +174,11 @@ def train_two_stage(
     seed: int = 0,
     progress=None,
 ) -> History:
-    """Stage 1 (``f_theta`` on frames), then stage 2 (``g_phi`` on chunks, ``f_theta`` frozen)."""
+    """Stage 1 (``f_theta`` on frames), then stage 2 (``g_phi`` on chunks, ``f_theta`` frozen).
+
+    A stage that a non-finite loss stops keeps its best weights; stage 2 still runs after such a
+    stage 1, from the kept backbone.
+    """
     gen = torch.Generator().manual_seed(seed)
     hist = History()
     backbone = [p for u in cascade.units for p in u.backbone.parameters()]
@@ -179,6 +194,7 @@ def train_two_stage(
         schedule=stage1,
         generator=gen,
         log=hist.stage1,
+        stopped=hist.stopped,
         progress=progress,
         desc="stage 1 (f_theta)",
     )
@@ -199,6 +215,7 @@ def train_two_stage(
                 schedule=stage2,
                 generator=gen,
                 log=hist.stage2,
+                stopped=hist.stopped,
                 progress=progress,
                 desc="stage 2 (g_phi)",
             )

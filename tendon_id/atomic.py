@@ -1,15 +1,25 @@
-"""Atomic file writes: readers see the old file or the whole new one, never half of it."""
+"""Atomic file writes: readers see the old file or the whole new one, never half of it.
+
+Also what the long commands need around their writes: a check that an output can be written,
+made before the work starts; a journal of the files written; and a Ctrl-C held over a group of
+files that belong together.
+"""
 
 from __future__ import annotations
 
 import json
 import math
 import os
+import signal
 import tempfile
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+
+from tendon_id.errors import ConfigError
 
 
 def _umask() -> int:
@@ -36,6 +46,8 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], None]) -> Path:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    if _journal is not None:
+        _journal.append(path)
     return path
 
 
@@ -74,3 +86,83 @@ def write_json_atomic(path: str | os.PathLike, obj, *, strict: bool = False) -> 
         obj = _finite(obj)
     text = json.dumps(obj, indent=2, default=_jsonable, allow_nan=not strict) + "\n"
     return write_text_atomic(path, text)
+
+
+# ---- checks before long work, and what was written ------------------------------------------
+
+_journal: list[Path] | None = None
+
+
+@contextmanager
+def record_writes() -> Iterator[list[Path]]:
+    """Collect the paths that :func:`atomic_write` completes inside the block (a list, filled as they land).
+
+    The command line reads it to say what a Ctrl-C left behind: only whole files, and which.
+    """
+    global _journal
+    outer, _journal = _journal, []
+    try:
+        yield _journal
+    finally:
+        if outer is not None:
+            outer.extend(_journal)
+        _journal = outer
+
+
+@contextmanager
+def hold_interrupt() -> Iterator[None]:
+    """Hold a Ctrl-C (SIGINT) until the block ends, then raise it.
+
+    A model folder or a report with its JSON is several files, each written atomically; holding
+    the interrupt over the group keeps the set consistent (no new ``arrays.npz`` beside an old
+    ``model.json``).  Outside the main thread, where no signal handler can be set, it holds nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught and callable(previous):  # the default handler raises KeyboardInterrupt
+        previous(signal.SIGINT, None)
+
+
+def check_writable(
+    path: str | os.PathLike, option: str, *, folder: bool = False, suffixes: tuple[str, ...] | None = None
+) -> Path:
+    """Raise :class:`~tendon_id.errors.ConfigError` unless ``path`` can be written, before any long work.
+
+    The nearest existing ancestor must be a writable folder (missing folders are created on
+    writing), a file must not be a folder nor a folder a file, and a file must end in one of
+    ``suffixes``.
+
+    Parameters
+    ----------
+    path : path-like
+    option : str
+        The option that named it (``"--out"``), for the message.
+    folder : bool
+        ``path`` is a folder to write files in, rather than a file.
+    suffixes : tuple of str, optional
+        Allowed endings of a file, lower case with the dot (``(".html", ".htm")``).
+    """
+    path = Path(path)
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise ConfigError(f"{option} {path}: the file must end in {' or '.join(suffixes)}")
+    if folder and path.exists() and not path.is_dir():
+        raise ConfigError(f"{option} {path}: is a file, not a folder")
+    if not folder and path.is_dir():
+        raise ConfigError(f"{option} {path}: is a folder, not a file")
+    base = path if folder else path.parent
+    existing = base
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise ConfigError(f"{option} {path}: {existing} is a file, so no folder can be made under it")
+    # atomic_write needs to create a temporary file (and folders) here: write and search permission
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ConfigError(f"{option} {path}: cannot write in {existing} (permission denied)")
+    return path

@@ -1,6 +1,12 @@
 """The ``tendon-id`` command line (DESIGN §10).
 
-Exit codes: 0 ok, 2 bad input (one line naming the file or option), 1 internal error.
+Exit codes: 0 ok, 2 bad input (one line naming the file or option), 1 internal error, 130
+interrupted (Ctrl-C: one line saying where the work stopped and which whole files it wrote).
+
+The long commands (fit, calibrate, identifiability, diagnose, benchmark, demo) check their
+options, outputs and optional dependencies before the long part starts, name their phases for
+the interrupt's message (:func:`tendon_id.progress.stage`), and hold a Ctrl-C over a group of
+output files that belong together (:func:`tendon_id.atomic.hold_interrupt`).
 
 The lists in the help texts (models, benchmarks, protocols, effects) come from their
 registries. Each command imports what it runs inside its body, so that ``--help`` and a
@@ -12,14 +18,19 @@ from __future__ import annotations
 import json
 import os
 import sys
+import warnings
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Optional
 
 import typer
 
+from tendon_id.atomic import check_writable, hold_interrupt, record_writes
 from tendon_id.benchmarks.registry import BENCHMARKS, PRESETS
 from tendon_id.errors import TendonIdError
 from tendon_id.extras import require_extra
+from tendon_id.progress import interrupt_message, stage
+from tendon_id.progress import reset as reset_progress
 from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
 from tendon_id.zoo.blocks import EFFECT_BLOCKS
@@ -65,10 +76,11 @@ def simulate(
     from tendon_id.datasets import load_recipe
     from tendon_id.sim import simulate as run
 
-    if out.suffix.lower() not in (".parquet", ".csv"):
-        raise TendonIdError(f"--out {out}: the file must end in .parquet or .csv")
-    rec = run(load_recipe(recipe), protocol, seed=seed, effects=effects, frames=frames).recording
-    path = rec.write(out)
+    check_writable(out, "--out", suffixes=(".parquet", ".csv"))
+    with stage("simulate"):
+        rec = run(load_recipe(recipe), protocol, seed=seed, effects=effects, frames=frames).recording
+    with stage("writing the recording"), hold_interrupt():  # a .csv and its .json sidecar together
+        path = rec.write(out)
     typer.echo(f"wrote {path}: {rec.n_frames} frames, {len(rec.trajectories)} trajectories, {rec.n_modules} modules")
 
 
@@ -128,14 +140,35 @@ def fit(
     """Fit a zoo model on terminal-only labels and save it."""
     from tendon_id import zoo
 
+    check_writable(out, "--out", folder=True)
     m = zoo.make(model, **_parse_sets(set_))
     recs = _read_all(data, mapping)
-    with quiet_guard():  # printed below, plainly
+    with stage(f"fit {model}"), quiet_guard(), _training_warnings():  # the guard is printed below, plainly
         m.fit(recs)
-    m.save(out)
+    with stage("writing the model"), hold_interrupt():  # model.json and arrays.npz: both or neither new
+        m.save(out)
     frames = sum(r.n_frames for r in recs)
     typer.echo(f"fitted {model} on {frames} frames; saved to {out}")
     _echo_guard(m)
+
+
+@contextmanager
+def _training_warnings():
+    """Show a training stopped by a non-finite loss as one line on stderr, every time it happens."""
+    from learners.loop import NonFiniteLossWarning
+
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, NonFiniteLossWarning):
+            typer.echo(f"tendon-id: warning: {message}", err=True)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", NonFiniteLossWarning)
+        warnings.showwarning = show
+        yield
 
 
 def _echo_guard(m) -> None:
@@ -208,14 +241,16 @@ def calibrate(
     """Constrained calibration with nlopt (the law, or a passage's law and blocks), optionally its emcee posterior."""
     if posterior:
         require_extra("posterior", "--posterior (its corner plot)")
+    check_writable(out, "--out", folder=True)
     from tendon_id.calibration_report import run_calibration
 
     names = [b.strip() for b in (blocks or "").split(",") if b.strip()]
     PassageCapstan(blocks=names).block_objects  # an unknown or repeated block fails before the data is read
     recs = _read_all(data, mapping)
-    written = run_calibration(
-        recs, model=model, tying=tying, blocks=names, posterior=posterior, out=out, seed=seed, report=typer.echo
-    )
+    with stage(f"calibrate {model}" + (" and its posterior" if posterior else "")):
+        written = run_calibration(
+            recs, model=model, tying=tying, blocks=names, posterior=posterior, out=out, seed=seed, report=typer.echo
+        )
     for path in written:
         typer.echo(f"wrote {path}")
 
@@ -276,19 +311,42 @@ def benchmark(
         if recipe:
             raise TendonIdError("--recipe: the diagnosis benchmark simulates its own cases (see its guide)")
         kwargs.update(seed=seed, quick=quick, backend=backend, n_jobs=jobs)
-    result = run_benchmark(name, preset=preset, **kwargs)
+    _check_benchmark(name, preset, json_out, out, recipe, backend if "backend" in kwargs else None, jobs)
+    with stage(f"benchmark {name}"), _training_warnings():
+        result = run_benchmark(name, preset=preset, **kwargs)
     typer.echo(format_table(result))
-    if json_out:
-        _write_json(json_out, result)
-        typer.echo(f"wrote {json_out}")
-    if out is not None and name == "regimes":
-        from tendon_id.report.regimes import write_regimes_page
+    with stage("writing the results"), hold_interrupt():
+        if json_out:
+            _write_json(json_out, result)
+            typer.echo(f"wrote {json_out}")
+        if out is not None and name == "regimes":
+            from tendon_id.report.regimes import write_regimes_page
 
-        typer.echo(f"wrote {write_regimes_page(result, out)}")
-    if out is not None and name == "table3":
-        from tendon_id.report.closed_loop import write_table3_page
+            typer.echo(f"wrote {write_regimes_page(result, out)}")
+        if out is not None and name == "table3":
+            from tendon_id.report.closed_loop import write_table3_page
 
-        typer.echo(f"wrote {write_table3_page(result, out)}")
+            typer.echo(f"wrote {write_table3_page(result, out)}")
+
+
+def _check_benchmark(name, preset, json_out, out, recipe, backend, jobs) -> None:
+    """What a benchmark would otherwise refuse after its work: names, outputs, recipe, joblib backend."""
+    if name not in BENCHMARKS:
+        raise TendonIdError(f"unknown benchmark {name!r}; known: {', '.join(BENCHMARKS)}")
+    if preset not in PRESETS:
+        raise TendonIdError(f"--preset: unknown preset {preset!r}; known: {', '.join(PRESETS)}")
+    if json_out is not None:
+        check_writable(json_out, "--json", suffixes=(".json",))
+    if out is not None:
+        check_writable(out, "--out")
+    if recipe:
+        from tendon_id.datasets import load_recipe
+
+        load_recipe(recipe)
+    if backend is not None:  # dask or ray must be installed and registered; n_jobs a non-zero integer
+        from tendon_id.benchmarks.jobs import job_runner
+
+        job_runner(backend, jobs)
 
 
 @app.command()
@@ -310,16 +368,24 @@ def identifiability(
 ) -> None:
     """What terminal-only data determines: tied against per-guide laws, bands, and what to measure next."""
     from tendon_id.identifiability import StudySettings, analyse
+    from tendon_id.identifiability.study import check_learned_inputs
     from tendon_id.report.identifiability import write_report
 
     if out.suffix.lower() not in (".html", ".htm"):
         raise TendonIdError(f"--out {out}: the report is an HTML file (.html)")
+    check_writable(out, "--out")
+    if json_out is not None:
+        check_writable(json_out, "--json", suffixes=(".json",))
     if seeds < 1:
         raise TendonIdError("--seeds must be at least 1")
-    recs = _read_all(data)
     settings = StudySettings(model=model, noise_n=noise_n, seed=seed)
-    result = analyse(recs, settings, learned=learned, learned_seeds=seeds)
-    path = write_report(result, out, json_out)
+    recs = _read_all(data)
+    if learned:
+        check_learned_inputs(recs)
+    with stage("identifiability"), _training_warnings() if learned else nullcontext():
+        result = analyse(recs, settings, learned=learned, learned_seeds=seeds)
+    with stage("writing the report"), hold_interrupt():  # the page and its JSON together
+        path = write_report(result, out, json_out)
     js = result.to_json()
     typer.echo(
         f"tied: rank {js['tied']['rank']}/{js['tied']['n_params']}; per-guide: rank {js['per_guide']['rank']}/"
@@ -365,14 +431,19 @@ def diagnose(
         raise TendonIdError(f"--out {out}: the report is an HTML file (.html)")
     if json_out is not None and json_out.suffix.lower() != ".json":
         raise TendonIdError(f"--json {json_out}: the file must end in .json")
+    check_writable(out, "--out")
+    if json_out is not None:
+        check_writable(json_out, "--json")
     model = zoo.load_model(base) if Path(base).is_dir() else zoo.make(base)
     check_base(model)
     passage = isinstance(model, PassageModel)
     names = candidate_names(candidates, PASSAGE_BLOCKS if passage else None)
     train = _read_all(data, mapping)
     held = _read_all(test, mapping) if test else None
-    result = run(model, train, held, names, settings=DiagnosisSettings(seed=seed), n_jobs=jobs)
-    path = write_report(result, out, json_out)
+    with stage("diagnose"):
+        result = run(model, train, held, names, settings=DiagnosisSettings(seed=seed), n_jobs=jobs)
+    with stage("writing the report"), hold_interrupt():
+        path = write_report(result, out, json_out)
     typer.echo(result.summary())
     typer.echo(f"wrote {path}" + (f" and {json_out}" if json_out else ""))
 
@@ -393,37 +464,55 @@ def demo(
     """The main job on the default recipe: simulate, compare capstan-nonsmooth and the cascades in OUT/summary.html."""
     from tendon_id.demo import run_demo
 
-    path = run_demo(out, recipe=recipe, frames=frames, models=models)
+    check_writable(out, "--out", folder=True)
+    with stage("demo"), _training_warnings():
+        path = run_demo(out, recipe=recipe, frames=frames, models=models)
     typer.echo(f"wrote {path}")
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit code."""
     command = typer.main.get_command(app)
-    try:
-        rv = command.main(args=argv, prog_name="tendon-id", standalone_mode=False)
-        return int(rv) if isinstance(rv, int) else 0
-    except typer.Exit as exc:  # --help and friends
-        return exc.exit_code
-    except typer.Abort:
-        typer.echo("aborted", err=True)
-        return 1
-    except TendonIdError as exc:
-        typer.echo(f"tendon-id: error: {exc}", err=True)
-        return 2
-    except KeyboardInterrupt:
-        typer.echo("interrupted", err=True)
-        return 130
-    except Exception as exc:
-        if hasattr(exc, "show") and hasattr(exc, "exit_code"):  # the parser's usage errors (exit code 2)
-            exc.show()
-            return int(exc.exit_code)
-        if os.environ.get("TENDON_ID_DEBUG"):
-            raise
-        typer.echo(
-            f"tendon-id: internal error: {type(exc).__name__}: {exc} (set TENDON_ID_DEBUG=1 for a traceback)", err=True
-        )
-        return 1
+    reset_progress()
+    with record_writes() as written:
+        try:
+            rv = command.main(args=argv, prog_name="tendon-id", standalone_mode=False)
+            if rv == 130:  # typer's answer to a Ctrl-C (no command returns a number)
+                return _interrupted(written)
+            return int(rv) if isinstance(rv, int) else 0
+        except (typer.Exit, typer.Abort) as exc:
+            if isinstance(exc.__cause__, KeyboardInterrupt):  # typer turns a Ctrl-C into Exit(130), click into Abort
+                return _interrupted(written)
+            if isinstance(exc, typer.Exit):  # --help and friends
+                return exc.exit_code
+            typer.echo("aborted", err=True)
+            return 1
+        except KeyboardInterrupt:
+            return _interrupted(written)
+        except TendonIdError as exc:
+            typer.echo(f"tendon-id: error: {exc}", err=True)
+            return 2
+        except Exception as exc:
+            return _internal(exc)
+
+
+def _interrupted(written: list) -> int:
+    """Ctrl-C: one line, where the work stopped and which whole files were written; no traceback."""
+    typer.echo(f"tendon-id: {interrupt_message(written)}", err=True)
+    return 130
+
+
+def _internal(exc: Exception) -> int:
+    """A parser's usage error (its own exit code), or an internal error: one line, exit 1."""
+    if hasattr(exc, "show") and hasattr(exc, "exit_code"):  # the parser's usage errors (exit code 2)
+        exc.show()
+        return int(exc.exit_code)
+    if os.environ.get("TENDON_ID_DEBUG"):
+        raise exc
+    typer.echo(
+        f"tendon-id: internal error: {type(exc).__name__}: {exc} (set TENDON_ID_DEBUG=1 for a traceback)", err=True
+    )
+    return 1
 
 
 if __name__ == "__main__":  # pragma: no cover
