@@ -76,16 +76,20 @@ def _finite(o):
     return o
 
 
-def write_json_atomic(path: str | os.PathLike, obj, *, strict: bool = False) -> Path:
-    """Write ``obj`` as indented JSON to ``path`` atomically.
+def json_text(obj, *, strict: bool = False) -> str:
+    """``obj`` as indented JSON: numpy values converted; with ``strict`` non-finite numbers as ``null``.
 
-    numpy values are converted. ``strict`` writes non-finite numbers as ``null`` (standard
-    JSON); otherwise they are written as Python's ``NaN``/``Infinity`` tokens.
+    Without ``strict`` they are written as Python's ``NaN``/``Infinity`` tokens, which strict
+    JSON parsers reject.
     """
     if strict:
         obj = _finite(obj)
-    text = json.dumps(obj, indent=2, default=_jsonable, allow_nan=not strict) + "\n"
-    return write_text_atomic(path, text)
+    return json.dumps(obj, indent=2, default=_jsonable, allow_nan=not strict)
+
+
+def write_json_atomic(path: str | os.PathLike, obj, *, strict: bool = False) -> Path:
+    """Write ``obj`` as indented JSON to ``path`` atomically (see :func:`json_text`)."""
+    return write_text_atomic(path, json_text(obj, strict=strict) + "\n")
 
 
 # ---- checks before long work, and what was written ------------------------------------------

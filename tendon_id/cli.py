@@ -25,7 +25,7 @@ from typing import Optional
 
 import typer
 
-from tendon_id.atomic import check_writable, hold_interrupt, record_writes
+from tendon_id.atomic import check_writable, hold_interrupt, json_text, record_writes
 from tendon_id.benchmarks.registry import BENCHMARKS, PRESETS
 from tendon_id.errors import TendonIdError
 from tendon_id.extras import require_extra
@@ -197,8 +197,8 @@ def evaluate(
     rec = _read_all([data], mapping)[0]
     score = m.score(rec)
     result = {"model": m.name, "frames": rec.n_frames, **score}
-    if as_json:
-        typer.echo(json.dumps(result, indent=2, default=float))
+    if as_json:  # standard JSON: an undefined R^2 (a constant reference) is null
+        typer.echo(json_text(result, strict=True))
         return
     if "predicted" in score:  # a single passage
         p = score["predicted"]

@@ -83,6 +83,12 @@ class RobotGeometry:
     azimuth_step: float = 2.0 * np.pi / 36.0
 
     def __post_init__(self) -> None:
+        # A robot often comes from a file's metadata or a --set option: text or null is a user's mistake.
+        for f in fields(self):
+            v = getattr(self, f.name)
+            number = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+            if not number or not np.isfinite(v):
+                raise ConfigError(f"robot.{f.name} must be a finite number, got {v!r}")
         if int(self.n_modules) != self.n_modules or self.n_modules < 2:
             raise ConfigError(f"robot.n_modules must be an integer >= 2, got {self.n_modules!r}")
         for name in ("link_length", "joint_gap", "hole_radius"):

@@ -20,7 +20,9 @@ def tendon_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float]:
     -------
     dict
         ``{"rmse", "r2", "max_error"}``, the metrics object ``M`` of DESIGN §10.
-        R^2 is ``1 - SSE / SST`` per tendon (negative when worse than the mean).
+        R^2 is ``1 - SSE / SST`` per tendon (negative when worse than the mean), averaged over
+        the tendons whose reference varies; it is NaN when none does (``SST = 0``: one frame,
+        or a held load), since R^2 is then undefined.
     """
     p = np.asarray(pred, dtype=float)
     y = np.asarray(true, dtype=float)
@@ -33,7 +35,7 @@ def tendon_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float]:
         r2 = np.where(sst > 0, 1.0 - np.sum(err**2, axis=0) / sst, np.nan)
     return {
         "rmse": float(np.mean(rmse)),
-        "r2": float(np.nanmean(r2)),
+        "r2": float(np.mean(r2[~np.isnan(r2)])) if not np.isnan(r2).all() else float("nan"),
         "max_error": float(np.mean(np.max(np.abs(err), axis=0))),
     }
 

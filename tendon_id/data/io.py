@@ -11,8 +11,9 @@ a :class:`~tendon_id.data.Recording` (normalising, validating) is the caller's j
 
 from __future__ import annotations
 
+import csv
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +33,8 @@ __all__ = [
     "meta_json",
     "first_line",
     "check_suffix",
+    "check_unique_columns",
+    "check_csv_header",
     "read_frame",
     "read_parquet",
     "read_csv",
@@ -148,6 +151,8 @@ def read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
 
     src = str(path)
     try:
+        # The footer first: a repeated column name makes read_table fail with a cryptic message.
+        check_unique_columns(pq.read_schema(path).names, src)
         table = pq.read_table(path)
     except (pa.ArrowException, OSError) as exc:
         raise RecordingError(f"not a readable Parquet file ({first_line(exc)})", file=src) from exc
@@ -156,7 +161,8 @@ def read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
     if raw is not None:
         try:
             meta = json.loads(raw.decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+            # RecursionError: JSON nested deeper than Python's stack (a corrupt or hostile file).
             raise RecordingError(f"unreadable tendon_id metadata ({first_line(exc)})", file=src) from exc
         if not isinstance(meta, dict):
             raise RecordingError("tendon_id metadata is not a JSON object", file=src)
@@ -175,16 +181,64 @@ def read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
         raise RecordingError("the file is empty", file=src) from exc
     except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError) as exc:
         raise RecordingError(f"not a readable CSV file ({first_line(exc)})", file=src) from exc
+    frame = check_csv_header(path, frame)
     side = sidecar(path)
     meta = None
     if side.exists():
         try:
             meta = json.loads(side.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
             raise RecordingError(f"unreadable metadata sidecar ({first_line(exc)})", file=str(side)) from exc
         if not isinstance(meta, dict):
             raise RecordingError("metadata sidecar is not a JSON object", file=str(side))
     return frame, meta
+
+
+def check_unique_columns(names: Sequence[str], source: str) -> None:
+    """Raise naming the first column name that occurs twice among ``names``."""
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise RecordingError("duplicate column", file=source, column=str(name))
+        seen.add(name)
+
+
+#: Separators of CSV dialects we do not read, and how to name them in an error.
+_OTHER_SEPARATORS = {";": "';'", "\t": "tabs", "|": "'|'"}
+
+
+def check_csv_header(path: Path, frame: pd.DataFrame) -> pd.DataFrame:
+    """Check a CSV file's header line; return ``frame`` with its column names stripped of spaces.
+
+    Raises for a repeated column name (pandas would rename the second ``x`` to ``x.1`` and silently
+    keep both), a first line that is a comment, and columns separated by something else than
+    ``,`` (the file then reads as one column).
+    """
+    src = str(path)
+    if frame.shape[1] == 1:
+        name = str(frame.columns[0])
+        if name.lstrip().startswith("#"):
+            raise RecordingError(
+                f"the first line is a comment ({name.strip()[:40]!r}); the file must start with its header line "
+                '(or read it through a --mapping file with comment = "#")',
+                file=src,
+            )
+        for sep, said in _OTHER_SEPARATORS.items():
+            if sep in name:
+                raise RecordingError(
+                    f"the columns are separated by {said}; tendon-id reads comma-separated CSV "
+                    f"(write it with ',', or read it through a --mapping file with delimiter = {sep!r})",
+                    file=src,
+                )
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as fh:
+            header = next(csv.reader(fh, skipinitialspace=True), [])
+    except (csv.Error, UnicodeDecodeError, OSError) as exc:  # e.g. a header longer than csv's field limit
+        raise RecordingError(f"not a readable CSV file ({first_line(exc)})", file=src) from exc
+    # Spaces around a name (an aligned export) are not part of it; empty names (trailing commas)
+    # become pandas' distinct "Unnamed: k" extra columns.
+    check_unique_columns([h.strip() for h in header if h.strip()], src)
+    return frame.rename(columns=lambda c: c.strip() if isinstance(c, str) else c)
 
 
 def write_frame(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> Path:

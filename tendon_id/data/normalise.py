@@ -52,6 +52,17 @@ def float_column(frame: pd.DataFrame, column: str) -> np.ndarray:
     return s.to_numpy(dtype=np.float64, na_value=np.nan)
 
 
+def _numbers(v: Any) -> bool:
+    """True for a finite real number (not a bool), or a (nested) list of them."""
+    if isinstance(v, (list, tuple)):
+        return all(_numbers(x) for x in v)
+    if isinstance(v, (bool, np.bool_)):
+        return False
+    if is_int(v):
+        return True  # Python ints may be too large for a float, and are finite anyway
+    return isinstance(v, (float, np.floating)) and math.isfinite(v)
+
+
 def normalise_meta(meta: Mapping[str, Any] | None, source: str | None) -> dict[str, Any]:
     """Check the types of the known metadata keys and fill defaults (n_modules may stay None).
 
@@ -71,7 +82,8 @@ def normalise_meta(meta: Mapping[str, Any] | None, source: str | None) -> dict[s
     Raises
     ------
     RecordingError
-        For a value of the wrong type, or a schema version newer than this package.
+        For a value of the wrong type (including a ``robot`` value that is not a finite number or
+        a list of them), or a schema version newer than this package.
     """
     if meta is None:
         meta = {}
@@ -121,6 +133,12 @@ def normalise_meta(meta: Mapping[str, Any] | None, source: str | None) -> dict[s
     robot = raw.get("robot")
     if robot is not None and not isinstance(robot, Mapping):
         raise bad("robot", "a mapping or null")
+    for key, v in (robot or {}).items():
+        # Robot geometry is numbers [m, rad]; a text or null value would only fail later, deep in a fit.
+        if not _numbers(v):
+            raise RecordingError(
+                f"metadata 'robot.{key}' must be a finite number or a list of them, got {v!r}", file=source
+            )
     out["robot"] = None if robot is None else copy.deepcopy(dict(robot))
 
     effects = raw.get("effects")

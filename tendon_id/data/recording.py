@@ -425,9 +425,11 @@ class Recording:
         Checks, in order: empty recording; duplicate, missing or inconsistently numbered
         columns and a ``n_modules`` that does not match them; non-numeric values; missing or
         empty trajectory ids; a trajectory split into non-contiguous blocks; NaN or inf values;
-        non-positive tensions; angles that look like degrees (``|angle| > pi``); time that does
-        not strictly increase within a trajectory. Checks are vectorised (per column); see
-        :func:`tendon_id.data.validation.validate`.
+        non-positive tensions and tensions outside [1e-9, 1e6] N; angles that look like degrees
+        (``|angle| > pi``); time that does not strictly increase within a trajectory; then a
+        ``robot.n_modules`` in the metadata that differs from the columns. Checks are vectorised
+        (per column); see :func:`tendon_id.data.validation.validate` and
+        :func:`~tendon_id.data.validation.check_robot_meta`.
 
         Raises
         ------
@@ -435,6 +437,7 @@ class Recording:
             Naming the file, the column and the 0-based frame row of the first offending value.
         """
         validation.validate(self._frame, self._meta["n_modules"], source=self._source)
+        validation.check_robot_meta(self._meta["robot"], self.n_modules, source=self._source)
 
     def check_history_window(self, h: int) -> None:
         """Check that every trajectory has at least ``h`` frames.

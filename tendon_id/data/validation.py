@@ -39,9 +39,13 @@ __all__ = [
     "check_contiguous_trajectories",
     "check_finite",
     "check_positive_tensions",
+    "MIN_TENSION_N",
+    "MAX_TENSION_N",
+    "check_tension_magnitude",
     "check_angles_in_rad",
     "check_time_increases",
     "check_history_window",
+    "check_robot_meta",
     "validate",
 ]
 
@@ -159,23 +163,28 @@ def check_required_columns(columns: Sequence[str], n_modules: int, *, source: st
 def check_numeric(frame: pd.DataFrame, columns: Sequence[str], *, source: str | None = None) -> None:
     """Raise for the first of ``columns`` whose dtype is not integer or floating.
 
-    The row named is the first value that does not parse as a number (None when every value
-    does, e.g. a bool column).
+    The row named is the first value that does not parse as a number; for a text column whose
+    values all parse, the first missing value, else None (numbers stored as text). Booleans are
+    not numbers: the row is the first value.
     """
     for c in columns:
         s = frame[c]
         if not is_real_dtype(s.dtype):
-            coerced = (
-                pd.to_numeric(s, errors="coerce")
-                if s.dtype.kind in ("O", "U", "S", "T") or pd.api.types.is_string_dtype(s.dtype)
-                else pd.Series(np.nan, index=s.index)
-            )
+            text = s.dtype.kind in ("O", "U", "S", "T") or pd.api.types.is_string_dtype(s.dtype)
+            coerced = pd.to_numeric(s, errors="coerce") if text else pd.Series(np.nan, index=s.index)
             bad = (coerced.isna() & s.notna()).to_numpy()
             row = _first_true(bad)
-            value = f" {_short(s.iloc[row])}" if row is not None else ""
-            raise RecordingError(
-                f"non-numeric value{value} (dtype {s.dtype}); expected numbers", file=source, column=c, row=row
-            )
+            if row is not None:
+                v = s.iloc[row]
+                shown = _short(v.item() if isinstance(v, np.generic) else v)
+                reason = f"non-numeric value {shown} (dtype {s.dtype}); expected numbers"
+            else:
+                row = _first_true(s.isna().to_numpy())
+                if row is not None:
+                    reason = f"missing value in a column of text (dtype {s.dtype}); expected numbers"
+                else:
+                    reason = f"numbers stored as text (dtype {s.dtype}); expected a numeric column"
+            raise RecordingError(reason, file=source, column=c, row=row)
 
 
 def check_trajectory_ids(frame: pd.DataFrame, *, source: str | None = None) -> np.ndarray:
@@ -229,6 +238,31 @@ def check_positive_tensions(arrays: Mapping[str, np.ndarray], *, source: str | N
         )
 
 
+#: Range of tensions a recording may hold [N]. A snake robot's tendons carry tens to hundreds of N
+#: and no load cell resolves a nN; a value outside is a unit or storage error, and its square
+#: overflows or underflows in the metrics.
+MIN_TENSION_N, MAX_TENSION_N = 1.0e-9, 1.0e6
+
+
+def check_tension_magnitude(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:
+    """Raise for a positive tension outside [:data:`MIN_TENSION_N`, :data:`MAX_TENSION_N`] [N].
+
+    Run after :func:`check_positive_tensions`; ``arrays`` are the float64 tension columns.
+    """
+    hit = _first_hit(arrays, lambda a: (a < MIN_TENSION_N) | (a > MAX_TENSION_N))
+    if hit:
+        c, row = hit
+        v = arrays[c][row]
+        bound = f"> {MAX_TENSION_N:g} N" if v > MAX_TENSION_N else f"< {MIN_TENSION_N:g} N"
+        raise RecordingError(
+            f"tension {v:g} N is implausibly {'large' if v > MAX_TENSION_N else 'small'} ({bound}); "
+            "tensions must be in N",
+            file=source,
+            column=c,
+            row=row,
+        )
+
+
 def check_angles_in_rad(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:
     """Raise for ``|angle| > pi`` in any of the float64 angle ``arrays`` [rad]: likely degrees."""
     hit = _first_hit(arrays, lambda a: np.abs(a) > np.pi)
@@ -264,6 +298,25 @@ def check_time_increases(t: np.ndarray, ids: np.ndarray, *, source: str | None =
             file=source,
             column="t",
             row=row,
+        )
+
+
+def check_robot_meta(robot: Mapping[str, Any] | None, n_modules: int, *, source: str | None = None) -> None:
+    """Raise when the metadata's robot has another number of modules than the columns describe.
+
+    Parameters
+    ----------
+    robot : mapping or None
+        The ``robot`` metadata (normalised: its values are numbers).
+    n_modules : int
+        ``N`` of the recording (checked against its columns by :func:`check_n_modules`).
+    source : str, optional
+        File named in the error.
+    """
+    k = (robot or {}).get("n_modules")
+    if k is not None and k != n_modules:
+        raise RecordingError(
+            f"metadata 'robot.n_modules' is {k!r} but the columns describe {n_modules} modules", file=source
         )
 
 
@@ -308,7 +361,8 @@ def validate(frame: pd.DataFrame, n_modules: int | None = None, *, source: str |
     Runs, in order: :func:`check_not_empty`, :func:`check_numbering`, :func:`check_n_modules`,
     :func:`check_required_columns`, :func:`check_numeric`, :func:`check_trajectory_ids`,
     :func:`check_contiguous_trajectories`, :func:`check_finite`,
-    :func:`check_positive_tensions`, :func:`check_angles_in_rad`, :func:`check_time_increases`.
+    :func:`check_positive_tensions`, :func:`check_tension_magnitude`, :func:`check_angles_in_rad`,
+    :func:`check_time_increases`.
 
     Parameters
     ----------
@@ -339,6 +393,8 @@ def validate(frame: pd.DataFrame, n_modules: int | None = None, *, source: str |
     # Finite values first, so the sign and range checks below see numbers only.
     arrays = {c: float_column(frame, c) for c in numeric}
     check_finite(arrays, source=source)
-    check_positive_tensions({c: a for c, a in arrays.items() if c.startswith("tension_")}, source=source)
+    tensions = {c: a for c, a in arrays.items() if c.startswith("tension_")}
+    check_positive_tensions(tensions, source=source)
+    check_tension_magnitude(tensions, source=source)
     check_angles_in_rad({c: arrays[c] for c in theta_columns(n)}, source=source)
     check_time_increases(arrays["t"], ids, source=source)

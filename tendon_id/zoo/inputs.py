@@ -43,7 +43,8 @@ def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None
             raise ConfigError(
                 "recordings come from different robots (their 'robot' metadata differ); pass robot= explicitly"
             )
-        geometry = RobotGeometry.from_dict(metas[0]) if metas[0] else RobotGeometry(n_modules=n)
+        # Metadata without a module count describes the robot the columns show.
+        geometry = RobotGeometry.from_dict({"n_modules": n, **metas[0]}) if metas[0] else RobotGeometry(n_modules=n)
     if geometry.n_modules != n:
         raise ConfigError(f"the robot has {geometry.n_modules} modules but the data has {n}")
     return geometry
