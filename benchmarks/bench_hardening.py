@@ -80,12 +80,13 @@ rec = simulate(load_recipe("snake12-paper"), "planned-paths", frames=320, seed=0
 first = rec.select([rec.trajectories[0]])
 model = untrained_model(rec, "paper", 0)
 default = model.streamer()
+AUTO = hasattr(default.engine, "chooser")  # the "auto" thread count exists after the change only
 rows = []
 for load in ("idle", "one core busy"):
     proc = subprocess.Popen([sys.executable, "-c", "while True: pass"]) if load != "idle" else None
     try:
         if proc: time.sleep(0.3)
-        for threads in (1, 2):
+        for threads in (1, 2, "auto") if AUTO else (1, 2):
             _, ms = _stream(model.streamer("native", threads=threads), first.angles, first.actuator)
             rows.append({"load": load, "threads": threads, "ms_median": ms})
     finally:

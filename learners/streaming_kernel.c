@@ -334,11 +334,11 @@ typedef struct {
     atomic_int sleepers; /* threads blocked (or about to block) in wait_for */
 } helper_t;
 
-/* Pauses a waiter spins before it blocks: about 10-40 us on x86, longer than the usual wait at a
+/* Pauses a waiter spins before it blocks: about 50-200 us on x86, longer than the usual wait at a
  * guide step on an idle machine, far shorter than a scheduler time slice.  On a busy machine the
  * other thread may not be running at all, and spinning would take the core it needs; so the
  * waiter then sleeps in the kernel (a futex) until the flag is posted. */
-#define SPIN_PAUSES 1024
+#define SPIN_PAUSES 4096
 
 static void pause_once(void) {
 #if defined(__x86_64__) || defined(__i386__)

@@ -31,12 +31,14 @@ import subprocess
 import sys
 import tempfile
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from learners.cascade import LOG_RATIO_BOUND, Cascade, folded_backbone
+from learners.thread_choice import ThreadChooser
 
 SOURCE = Path(__file__).with_name("streaming_kernel.c")
 #: The kernel's configuration vector, in the order of its ``C_*`` enum.
@@ -276,11 +278,13 @@ class NativeStreamingCascade:
         A float32 cascade on the CPU, in eval mode.
     n_sets : int
         ``N``, the number of tendon sets.
-    threads : int, optional
-        1 or 2.  Default: 2 where both parts of the unit are large enough to pay for the helper
-        (:func:`helper_thread_pays`, true for the paper preset) and the process may use at least
-        two CPUs, else 1.  The helper waits by spinning, so it gains only where a second core is
-        free; where it cannot be started, frames run on one thread (``threads`` then reads 1).
+    threads : int or "auto", optional
+        1, 2, or ``"auto"``: each frame on the count that has been faster lately
+        (:class:`~learners.thread_choice.ThreadChooser`), since a helper gains only where a
+        second core is free.  Default: ``"auto"`` where both parts of the unit are large enough
+        to pay for the helper (:func:`helper_thread_pays`, true for the paper preset) and the
+        process may use at least two CPUs, else 1.  The helper spins briefly, then sleeps, while
+        it waits.  Where it cannot be started, frames run on one thread (``threads`` then reads 1).
 
     Raises
     ------
@@ -293,10 +297,11 @@ class NativeStreamingCascade:
         if why:
             raise KernelUnavailable(why)
         if threads is None:
-            threads = 2 if helper_thread_pays(cascade.cfg) and available_cpus() >= 2 else 1
-        if threads not in (1, 2):
-            raise ValueError(f"threads must be 1 or 2, got {threads!r}")
-        self.threads = int(threads)
+            threads = "auto" if helper_thread_pays(cascade.cfg) and available_cpus() >= 2 else 1
+        if threads not in (1, 2, "auto"):
+            raise ValueError(f"threads must be 1, 2 or 'auto', got {threads!r}")
+        self.chooser = ThreadChooser() if threads == "auto" else None
+        self.threads = threads
         self.lib = load_kernel()
         cfg = cascade.cfg
         hidden = list(cfg.hidden) + [0] * (MAX_HIDDEN - len(cfg.hidden))
@@ -360,6 +365,8 @@ class NativeStreamingCascade:
                 f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, 3); "
                 f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}"
             )
+        threads = self.chooser.next() if self.chooser is not None else self.threads
+        start = time.perf_counter()
         rc = self.lib.pgchtc_frame(
             self.config.ctypes.data,
             self._unit_ptrs,
@@ -372,10 +379,12 @@ class NativeStreamingCascade:
             min(self.n_seen, self.window - 1),
             self._cache_ptrs,
             self._out.ctypes.data,
-            self.threads,
+            threads,
         )
+        if self.chooser is not None and rc == 0:
+            self.chooser.record(threads, time.perf_counter() - start)
         if rc == 2:  # the helper thread could not be started: this frame, and the next, on one
-            self.threads = 1
+            self.threads, self.chooser = 1, None
         elif rc != 0:
             raise MemoryError("the streaming kernel could not allocate its scratch memory")
         self.n_seen += 1

@@ -127,15 +127,15 @@ def busy_core():
         proc.wait()
 
 
-def thread_load_table(model, angles: np.ndarray, actuator: np.ndarray, default_threads: int) -> list[dict]:
-    """Streaming latency of the native engine on 1 and 2 threads, idle and beside a busy core, in one run.
+def thread_load_table(model, angles: np.ndarray, actuator: np.ndarray, default_threads) -> list[dict]:
+    """Streaming latency of the native engine on 1, 2 and "auto" threads, idle and beside a busy core, in one run.
 
     Returns rows ``{"load": "idle" | "one core busy", "threads", "ms_median", "default"}``.
     """
     rows = []
     for load in ("idle", "one core busy"):
         with busy_core() if load != "idle" else contextlib.nullcontext():
-            for threads in (1, 2):
+            for threads in (1, 2, "auto"):
                 _, ms = _stream(model.streamer("native", threads=threads), angles, actuator)
                 rows.append({"load": load, "threads": threads, "ms_median": ms, "default": threads == default_threads})
     return rows
@@ -197,7 +197,7 @@ def latency(
     streamed_torch, torch_ms = _stream(model.streamer("torch"), angles, act)
     native_threads = default.engine.threads if default.engine_name == "native" else None
     one_ms = same_bits = None
-    if native_threads and native_threads > 1:  # the helper thread's gain, measured in the same run
+    if native_threads in (2, "auto"):  # the helper thread's gain, measured in the same run
         streamed_one, one_ms = _stream(model.streamer("native", threads=1), angles, act)
         same_bits = bool(np.array_equal(streamed_one, streamed))
     load_rows = thread_load_table(model, angles, act, native_threads) if default.engine_name == "native" else []
@@ -272,7 +272,7 @@ def format_latency(r: dict) -> str:
         )
     if r.get("thread_load"):
         cells = ", ".join(
-            f"{row['load']} {row['threads']} thread{'s' if row['threads'] > 1 else ''} {row['ms_median']:.2f} ms"
+            f"{row['load']} {row['threads']} thread{'' if row['threads'] == 1 else 's'} {row['ms_median']:.2f} ms"
             + (" (default)" if row["default"] else "")
             for row in r["thread_load"]
         )

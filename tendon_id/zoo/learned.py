@@ -260,7 +260,7 @@ class PGCHTC(GuardedCascade):
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
         return chain
 
-    def streamer(self, engine: str = "auto", threads: int | None = None) -> PGCHTCStream:
+    def streamer(self, engine: str = "auto", threads: int | str | None = None) -> PGCHTCStream:
         """A frame-by-frame estimator with causal caches (O(1) per frame).
 
         See :class:`PGCHTCStream` for ``engine`` and ``threads``.
@@ -316,10 +316,12 @@ class PGCHTCStream:
         inference: units in float32, inputs and chain in float64.  ``"auto"`` (default) takes
         the kernel where it builds and the model is a float32 CPU model, and the torch engine
         otherwise (with a warning if the kernel failed to build).
-    threads : {1, 2}, optional
+    threads : {1, 2, "auto"}, optional
         Native engine only: 2 computes ``g_phi`` on a helper thread beside ``f_theta`` within
-        each frame, with the same result to the bit.  Default: 2 where the model has a temporal
-        residual and the process may use two CPUs, else 1.
+        each frame, with the same result to the bit; ``"auto"`` runs each frame on the count
+        that has been faster lately (a helper pays only where a second core is free).  Default:
+        ``"auto"`` where the units are large enough for a helper to pay and the process may use
+        two CPUs, else 1.
 
     Attributes
     ----------
@@ -327,11 +329,11 @@ class PGCHTCStream:
         The engine in use, ``"native"`` or ``"torch"``.
     """
 
-    def __init__(self, model: PGCHTC, engine: str = "auto", threads: int | None = None):
+    def __init__(self, model: PGCHTC, engine: str = "auto", threads: int | str | None = None):
         if engine not in STREAM_ENGINES:
             raise ConfigError(f"engine must be one of {', '.join(STREAM_ENGINES)}; got {engine!r}")
-        if threads not in (None, 1, 2):
-            raise ConfigError(f"threads must be 1 or 2; got {threads!r}")
+        if threads not in (None, 1, 2, "auto"):
+            raise ConfigError(f"threads must be 1, 2 or 'auto'; got {threads!r}")
         self.model = model
         self.alpha0 = model.geometry_.alpha_0
         self.engine_name = "torch"

@@ -47,7 +47,8 @@ def load_model(path: str | os.PathLike) -> Estimator:
     except ConfigError as exc:  # the model's own check of what it was handed: name the folder
         raise ConfigError(f"{folder}: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - any failure to rebuild from these files is bad input
-        reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
+        # One line: torch's "Error(s) in loading state_dict" says what differs on its next lines.
+        reason = " ".join(line.strip() for line in str(exc).splitlines() if line.strip())[:240] or type(exc).__name__
         raise ConfigError(
             f"{folder}: its model.json and arrays.npz do not make a {doc.get('model')} model ({reason})"
         ) from None

@@ -87,8 +87,11 @@ def test_helper_thread_gives_the_same_bits(kernel, tied):
         for _ in range(L)
     ]
     one, two = sn.NativeStreamingCascade(cascade, n, threads=1), sn.NativeStreamingCascade(cascade, n, threads=2)
+    auto = sn.NativeStreamingCascade(cascade, n, threads="auto")  # switches between the two: still the same bits
     for f in frames:
-        np.testing.assert_array_equal(two.step(*f), one.step(*f))
+        ref = one.step(*f)
+        np.testing.assert_array_equal(two.step(*f), ref)
+        np.testing.assert_array_equal(auto.step(*f), ref)
     with pytest.raises(ValueError, match="threads"):
         sn.NativeStreamingCascade(cascade, n, threads=3)
 
@@ -133,3 +136,20 @@ def test_a_missing_compiler_falls_back_to_torch_with_a_warning(monkeypatch, tmp_
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert PGCHTCStream(Model()).engine_name == "torch"
+
+
+def test_the_thread_chooser_runs_the_faster_count_and_keeps_probing():
+    from learners.thread_choice import ThreadChooser
+
+    chooser = ThreadChooser(start=2, probe_every=8)
+    cost = {1: 3.0e-3, 2: 2.0e-3}  # idle: the helper pays
+    counts = []
+    for frame in range(200):
+        if frame == 100:
+            cost = {1: 3.0e-3, 2: 5.0e-3}  # another process takes a core: one thread is faster
+        t = chooser.next()
+        chooser.record(t, cost[t])
+        counts.append(t)
+    assert counts[1] == 1  # the other count is timed early
+    assert counts[50:100].count(2) >= 40 and counts[150:].count(1) >= 40
+    assert 1 in counts[50:100] and 2 in counts[150:]  # still probing the other
