@@ -12,7 +12,8 @@
  * Why C: a frame is hundreds of small matrix products (11 sequential guide steps of
  * 11..1 rows for N = 12), so in torch their dispatch costs as much as their arithmetic.
  * Here each product is one register-blocked loop over GCC vector types, which the
- * compiler maps to the widest SIMD the machine has.
+ * compiler maps to the widest SIMD the machine has (streaming_gemm.h, which also reads
+ * half-precision copies of the weights where the caller gives them).
  *
  * Two cores: f_theta and g_phi of a guide step read the same unit input and nothing of
  * each other, and cost about the same for the paper preset (0.40 M and 0.39 M multiply-adds
@@ -23,6 +24,7 @@
  * Layouts (float32 unless said, C order):
  *   units[u]  : one unit's parameters, in the order the Python packer writes them
  *               (learners/streaming_native.py, _pack_unit).
+ *   half_units[u] : optional, the same as binary16 (uint16 bits).
  *   caches[g] : guide g's ring caches, for each layer keys then values, each
  *               (S_g, H, window, dk) with S_g = n_sets - 1 - g streams.
  */
@@ -39,112 +41,57 @@
 #include <unistd.h>
 #endif
 
-#if defined(__AVX512F__)
-#define VL 16
-#define MB 12 /* rows per register block: 2 * MB accumulators + 2 weights + 1 broadcast <= 32 */
-#else
-#define VL 8
-#define MB 6 /* 16 vector registers (AVX2): 12 accumulators + 2 weights + 1 broadcast */
-#endif
-#define NB (2 * VL)
-typedef float vec __attribute__((vector_size(VL * sizeof(float))));
+#include "streaming_gemm.h"
 
 enum { C_N_SETS, C_N_GUIDES, C_TIED, C_N_HIDDEN, C_HIDDEN0, C_RESIDUAL = C_HIDDEN0 + 4, C_D, C_H, C_WINDOW, C_FF, C_LAYERS, C_LEN };
 
-static inline vec vload(const float *p) { vec v; memcpy(&v, p, sizeof v); return v; }
-static inline void vstore(float *p, vec v) { memcpy(p, &v, sizeof v); }
-
-/* y[m, n0 : n0 + NV * VL] = b + x[m, :] @ W[:, n0 : n0 + NV * VL] for MM rows, with the
- * MM * NV accumulators in registers: each weight vector loaded is used MM times. */
-#define DEF_BLOCK(MM, NV)                                                                          \
-    static void block_##MM##_##NV(const float *x, int K, const float *W, int N, const float *b, float *y, int n0) { \
-        vec acc[MM][NV];                                                                           \
-        for (int m = 0; m < MM; m++)                                                               \
-            for (int j = 0; j < NV; j++) acc[m][j] = vload(b + n0 + j * VL);                       \
-        for (int k = 0; k < K; k++) {                                                              \
-            const float *w = W + (size_t)k * N + n0;                                               \
-            vec wv[NV];                                                                            \
-            for (int j = 0; j < NV; j++) wv[j] = vload(w + j * VL);                                \
-            for (int m = 0; m < MM; m++) {                                                         \
-                float xs = x[(size_t)m * K + k];                                                   \
-                for (int j = 0; j < NV; j++) acc[m][j] += xs * wv[j];                              \
-            }                                                                                      \
-        }                                                                                          \
-        for (int m = 0; m < MM; m++)                                                               \
-            for (int j = 0; j < NV; j++) vstore(y + (size_t)m * N + n0 + j * VL, acc[m][j]);       \
-    }
-/* Few rows: four vectors per row, so that enough independent FMA chains hide their latency. */
-DEF_BLOCK(1, 4) DEF_BLOCK(2, 4) DEF_BLOCK(3, 4)
-DEF_BLOCK(1, 2) DEF_BLOCK(2, 2) DEF_BLOCK(3, 2) DEF_BLOCK(4, 2) DEF_BLOCK(5, 2) DEF_BLOCK(6, 2)
-#if MB > 6
-DEF_BLOCK(4, 4) DEF_BLOCK(5, 4) DEF_BLOCK(6, 4)
-DEF_BLOCK(7, 2) DEF_BLOCK(8, 2) DEF_BLOCK(9, 2) DEF_BLOCK(10, 2) DEF_BLOCK(11, 2) DEF_BLOCK(12, 2)
-#endif
-
-typedef void (*block_fn)(const float *, int, const float *, int, const float *, float *, int);
-static const block_fn BLOCKS2[MB + 1] = {0, block_1_2, block_2_2, block_3_2, block_4_2, block_5_2, block_6_2,
-#if MB > 6
-                                         block_7_2, block_8_2, block_9_2, block_10_2, block_11_2, block_12_2
-#endif
-};
-#if MB > 6
-#define WIDE_ROWS 6 /* 6 * 4 = 24 accumulators */
-static const block_fn BLOCKS4[WIDE_ROWS + 1] = {0, block_1_4, block_2_4, block_3_4, block_4_4, block_5_4, block_6_4};
-#else
-#define WIDE_ROWS 3 /* 3 * 4 = 12 accumulators */
-static const block_fn BLOCKS4[WIDE_ROWS + 1] = {0, block_1_4, block_2_4, block_3_4};
-#endif
-
-/* y (M, N) = x (M, K) @ W (K, N) + b: a Linear layer with its weight stored transposed. */
-static void linear(const float *x, int M, int K, const float *W, const float *b, int N, float *y) {
-    int n2 = N - N % NB, n4 = N - N % (2 * NB);
-    for (int m0 = 0; m0 < M;) {
-        int mm = M - m0 < MB ? M - m0 : MB;
-        const float *xm = x + (size_t)m0 * K;
-        float *ym = y + (size_t)m0 * N;
-        int n0 = 0;
-        if (mm <= WIDE_ROWS)
-            for (; n0 < n4; n0 += 2 * NB) BLOCKS4[mm](xm, K, W, N, b, ym, n0);
-        for (; n0 < n2; n0 += NB) BLOCKS2[mm](xm, K, W, N, b, ym, n0);
-        m0 += mm;
-    }
-    for (int m = 0; m < M; m++)
-        for (int n = n2; n < N; n++) {
-            float s = b[n];
-            for (int k = 0; k < K; k++) s += x[(size_t)m * K + k] * W[(size_t)k * N + n];
-            y[(size_t)m * N + n] = s;
-        }
-}
-
-/* erf(x) as a branch-free rational function, so that the GELU loop below is vectorised
- * (libm's erff is a scalar call per element: 1.65 against 1.07 ms per frame for the paper
- * preset, with the same agreement with torch's batch inference).  The odd/even polynomials
- * on [-4, 4] are Eigen's generic_fast_erf_float (also XLA's); the test suite bounds its
- * error against torch.erf (3.3e-7 absolute).  Outside [-4, 4], erf is +-1 in float32. */
-static inline float erf_rational(float x) {
-    x = x > 4.f ? 4.f : (x < -4.f ? -4.f : x);
-    float x2 = x * x;
-    float p = x2 * -2.72614225801306e-10f + 2.77068142495902e-08f;
+/* erf(x) as a branch-free rational function on VL lanes at once (libm's erff is a scalar call per
+ * element: 1.65 against 1.07 ms per frame for the paper preset, with the same agreement with
+ * torch's batch inference).  The odd/even polynomials on [-4, 4] are Eigen's
+ * generic_fast_erf_float (also XLA's); the test suite bounds its error against torch.erf
+ * (3.3e-7 absolute).  Outside [-4, 4], erf is +-1 in float32.  The clamp is a bit select, not
+ * a branch, so that the compiler keeps the whole function in vector registers (a scalar clamp
+ * blocks the vectoriser: "control flow in loop"); NaN passes through, as in torch. */
+typedef int ivec __attribute__((vector_size(VL * sizeof(int))));
+static inline vec erf_rational(vec x) {
+    vec hi = (vec){0} + 4.f, lo = (vec){0} - 4.f;
+    ivec over = x > hi, under = x < lo, bits = (ivec)x;
+    bits = (bits & ~over) | ((ivec)hi & over);
+    bits = (bits & ~under) | ((ivec)lo & under);
+    x = (vec)bits;
+    vec x2 = x * x;
+    vec p = x2 * -2.72614225801306e-10f + 2.77068142495902e-08f;
     p = x2 * p - 2.10102402082508e-06f;
     p = x2 * p - 5.69250639462346e-05f;
     p = x2 * p - 7.34990630326855e-04f;
     p = x2 * p - 2.95459980854025e-03f;
     p = x2 * p - 1.60960333262415e-02f;
-    float q = x2 * -1.45660718464996e-05f - 2.13374055278905e-04f;
+    vec q = x2 * -1.45660718464996e-05f - 2.13374055278905e-04f;
     q = x2 * q - 1.68282697438203e-03f;
     q = x2 * q - 7.37332916720468e-03f;
     q = x2 * q - 1.42647390514189e-02f;
     return x * p / q;
 }
 
-static void gelu(float *x, size_t n) { /* exact (erf) GELU, as torch.nn.GELU() */
-    for (size_t i = 0; i < n; i++) x[i] = 0.5f * x[i] * (1.0f + erf_rational(x[i] * (float)M_SQRT1_2));
-}
+/* y = f(x) elementwise, VL lanes at a time; the tail is padded, so every element takes the same path. */
+#define MAP_LANES(f, x, y, n)                                              \
+    do {                                                                   \
+        size_t i_ = 0;                                                     \
+        for (; i_ + VL <= (n); i_ += VL) vstore((y) + i_, f(vload((x) + i_))); \
+        if (i_ < (n)) {                                                    \
+            float t_[VL] = {0};                                            \
+            memcpy(t_, (x) + i_, ((n) - i_) * sizeof(float));              \
+            vstore(t_, f(vload(t_)));                                      \
+            memcpy((y) + i_, t_, ((n) - i_) * sizeof(float));              \
+        }                                                                  \
+    } while (0)
+
+static inline vec gelu_v(vec x) { return 0.5f * x * (1.0f + erf_rational(x * (float)M_SQRT1_2)); }
+
+static void gelu(float *x, size_t n) { MAP_LANES(gelu_v, x, x, n); } /* exact (erf) GELU, as torch.nn.GELU() */
 
 /* For the tests: the erf the kernel uses. */
-void pgchtc_erf(const float *x, float *y, int n) {
-    for (int i = 0; i < n; i++) y[i] = erf_rational(x[i]);
-}
+void pgchtc_erf(const float *x, float *y, int n) { MAP_LANES(erf_rational, x, y, (size_t)n); }
 
 /* Sums over a row, VL lanes at a time: a scalar loop is one chain of dependent adds, which
  * the compiler may not reorder (IEEE), so it runs at the adder's latency, not its rate.
@@ -210,7 +157,8 @@ static int widest(const int *cfg) {
  * x: the normalised unit inputs (M, 8) of paper Eq. (7).  buf: 2 * M * widest(cfg) floats. */
 /* noinline: the calling thread and the helper run the very same machine code, so one and
  * two threads give the same bits whatever the compiler would inline where. */
-__attribute__((noinline)) static void backbone_step(const int *cfg, const float *P, const float *x, int M, float *buf, float *ratio) {
+__attribute__((noinline)) static void backbone_step(const int *cfg, params_t U, const float *x, int M, float *buf, float *ratio) {
+    const float *P = U.f;
     int n_hidden = cfg[C_N_HIDDEN], wide = widest(cfg);
     float *a = buf, *b = buf + (size_t)M * wide;
     /* (Linear [BN folded] -> GELU) per hidden layer, then Linear -> softplus + 0.01 */
@@ -219,12 +167,12 @@ __attribute__((noinline)) static void backbone_step(const int *cfg, const float 
     for (int i = 0; i < n_hidden; i++) {
         int N = cfg[C_HIDDEN0 + i];
         float *out = (i % 2) ? b : a;
-        linear(in, M, K, P, P + (size_t)K * N, N, out);
+        linear(in, M, K, U, P, P + (size_t)K * N, N, out);
         P += (size_t)K * N + N;
         gelu(out, (size_t)M * N);
         in = out, K = N;
     }
-    linear(in, M, K, P, P + (size_t)K * 3, 3, ratio);
+    linear(in, M, K, U, P, P + (size_t)K * 3, 3, ratio);
     for (int i = 0; i < M * 3; i++) ratio[i] = logf(softplus(ratio[i]) + 0.01f);
 }
 
@@ -232,14 +180,14 @@ __attribute__((noinline)) static void backbone_step(const int *cfg, const float 
  * updating the guide's ring caches at `slot`.  P: the unit's g_phi parameters, which follow
  * f_theta's (backbone_floats) in a packed unit.
  * buf: M * (2 * widest(cfg) + d_model) floats. */
-__attribute__((noinline)) static void residual_step(const int *cfg, const float *P, const float *x, int M, float *cache,
-                                                    int slot, int seen, float *buf, float *tr) {
+__attribute__((noinline)) static void residual_step(const int *cfg, params_t U, const float *P, const float *x, int M,
+                                                    float *cache, int slot, int seen, float *buf, float *tr) {
     int wide = widest(cfg);
     int D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
     float *a = buf, *b = buf + (size_t)M * wide, *h = b + (size_t)M * wide;
     int dk = D / H;
     float scale = 1.0f / sqrtf((float)dk);
-    linear(x, M, 8, P, P + 8 * D, D, h); /* embed */
+    linear(x, M, 8, U, P, P + 8 * D, D, h); /* embed */
     P += 8 * D + D;
     for (int l = 0; l < cfg[C_LAYERS]; l++) {
         const float *ln1g = P, *ln1b = P + D, *Wqkv = P + 2 * D, *bqkv = Wqkv + (size_t)D * 3 * D;
@@ -249,7 +197,7 @@ __attribute__((noinline)) static void residual_step(const int *cfg, const float 
         P = b2 + D;
         float *keys = cache + (size_t)2 * l * M * H * W * dk, *vals = keys + (size_t)M * H * W * dk;
         layer_norm(h, M, D, ln1g, ln1b, a);
-        linear(a, M, D, Wqkv, bqkv, 3 * D, b); /* q | k | v per row */
+        linear(a, M, D, U, Wqkv, bqkv, 3 * D, b); /* q | k | v per row */
         float *att = a; /* (M, D): attention output before the out projection */
         for (int s = 0; s < M; s++)
             for (int hd = 0; hd < H; hd++) {
@@ -267,24 +215,34 @@ __attribute__((noinline)) static void residual_step(const int *cfg, const float 
                 float z = 0.f;
                 for (int w = 0; w < W; w++) { sc[w] = sc[w] == -INFINITY ? 0.f : expf(sc[w] - mx); z += sc[w]; }
                 float *o = att + (size_t)s * D + hd * dk;
-                for (int i = 0; i < dk; i++) o[i] = 0.f;
-                for (int w = 0; w < W; w++) {
-                    if (sc[w] == 0.f) continue;
-                    float p = sc[w] / z;
-                    for (int i = 0; i < dk; i++) o[i] += p * V_[(size_t)w * dk + i];
+                for (int w = 0; w < W; w++) sc[w] /= z;
+                /* o = sum_w p_w V_w, VL columns at a time summed in a register over the lags (the
+                 * same sums in the same order as column by column, without a store per lag). */
+                int i = 0;
+                for (; i + VL <= dk; i += VL) {
+                    vec acc = {0};
+                    for (int w = 0; w < W; w++)
+                        if (sc[w] != 0.f) acc += sc[w] * vload(V_ + (size_t)w * dk + i);
+                    vstore(o + i, acc);
+                }
+                for (; i < dk; i++) {
+                    float acc = 0.f;
+                    for (int w = 0; w < W; w++)
+                        if (sc[w] != 0.f) acc += sc[w] * V_[(size_t)w * dk + i];
+                    o[i] = acc;
                 }
             }
-        linear(att, M, D, Wo, bo, D, b);
+        linear(att, M, D, U, Wo, bo, D, b);
         for (size_t i = 0; i < (size_t)M * D; i++) h[i] += b[i];
         layer_norm(h, M, D, ln2g, ln2b, a);
-        linear(a, M, D, W1, b1, F, b);
+        linear(a, M, D, U, W1, b1, F, b);
         gelu(b, (size_t)M * F);
-        linear(b, M, F, W2, b2, D, a);
+        linear(b, M, F, U, W2, b2, D, a);
         for (size_t i = 0; i < (size_t)M * D; i++) h[i] += a[i];
     }
     layer_norm(h, M, D, P, P + D, a);
     P += 2 * D;
-    linear(a, M, D, P, P + (size_t)D * 3, 3, tr);
+    linear(a, M, D, U, P, P + (size_t)D * 3, 3, tr);
 }
 
 /* ln r = clamp(ln r_MLP + ln(1 + 0.5 tanh(tr))) (paper Eq. (8)), added to log_t (M, 3, float64). */
@@ -325,6 +283,7 @@ long pgchtc_cache_floats(const int *cfg, int g) {
 typedef struct {
     const int *cfg;
     const float *const *units;
+    const uint16_t *const *half_units; /* NULL: float32 weights */
     float *const *caches;
     int slot, seen;
     const float *x; /* the posted guide's unit inputs */
@@ -376,13 +335,19 @@ static void post(atomic_int *flag, atomic_int *sleepers, int value) {
 #endif
 }
 
+/* Guide g's unit: its float32 parameters and, where given, their binary16 copy. */
+static params_t unit_params(const int *cfg, const float *const *units, const uint16_t *const *half_units, int g) {
+    int u = cfg[C_TIED] ? 0 : g;
+    return (params_t){units[u], half_units ? half_units[u] : NULL};
+}
+
 static void *helper_main(void *arg) {
     helper_t *hp = arg;
     for (int step = 0;; step++) {
         if (wait_for(&hp->go, &hp->sleepers, step + 1) < 0) return NULL;
         const int *cfg = hp->cfg;
-        const float *P = hp->units[cfg[C_TIED] ? 0 : hp->guide] + backbone_floats(cfg);
-        residual_step(cfg, P, hp->x, hp->M, hp->caches[hp->guide], hp->slot, hp->seen, hp->buf, hp->tr);
+        params_t U = unit_params(cfg, hp->units, hp->half_units, hp->guide);
+        residual_step(cfg, U, U.f + backbone_floats(cfg), hp->x, hp->M, hp->caches[hp->guide], hp->slot, hp->seen, hp->buf, hp->tr);
         post(&hp->done, &hp->sleepers, step + 1);
     }
 }
@@ -391,9 +356,11 @@ static void *helper_main(void *arg) {
  * Inputs and output in float64: norm, the feature mean (8) then std (8); sin_q (n_sets - 1, 4);
  * alpha (n_sets - 1); log_act and out (n_sets, 3).  seen: min(frames already seen, window - 1).
  * threads: 1, or 2 to run g_phi on a helper thread beside f_theta (same result).
+ * half_units: NULL, or per unit a binary16 copy of units[u] whose matrices the products read
+ * (streaming_gemm.h says why).
  * Returns 0; 2 if two threads were asked for but the helper could not be started, so the
  * frame ran on one (same result); 1 if the scratch memory could not be had. */
-int pgchtc_frame(const int *cfg, const float *const *units, const double *norm, float bound, const double *sin_q,
+int pgchtc_frame(const int *cfg, const float *const *units, const uint16_t *const *half_units, const double *norm, float bound, const double *sin_q,
                  const double *alpha, const double *log_act, int slot, int seen, float *const *caches, double *out,
                  int threads) {
     int n = cfg[C_N_SETS], G = cfg[C_N_GUIDES], residual = cfg[C_RESIDUAL];
@@ -403,7 +370,7 @@ int pgchtc_frame(const int *cfg, const float *const *units, const double *norm, 
     double *log_t = malloc(sizeof(double) * (size_t)M0 * 3);
     if (!buf || !log_t) { free(buf); free(log_t); return 1; }
     float *x = buf + 2 * part, *ratio = x + (size_t)M0 * 8, *tr = ratio + (size_t)M0 * 3;
-    helper_t hp = {cfg, units, caches, slot, seen, x, 0, 0, buf + part, tr};
+    helper_t hp = {cfg, units, half_units, caches, slot, seen, x, 0, 0, buf + part, tr};
     atomic_init(&hp.go, 0);
     atomic_init(&hp.done, 0);
     atomic_init(&hp.sleepers, 0);
@@ -418,7 +385,7 @@ int pgchtc_frame(const int *cfg, const float *const *units, const double *norm, 
             for (int i = 0; i < 5; i++) x[s * 8 + i] = (float)((geo[i] - norm[i]) / norm[8 + i]);
             for (int i = 0; i < 3; i++) x[s * 8 + 5 + i] = (float)((exp(log_t[s * 3 + i]) - norm[5 + i]) / norm[13 + i]);
         }
-        const float *unit = units[cfg[C_TIED] ? 0 : g];
+        params_t unit = unit_params(cfg, units, half_units, g);
         if (two) {
             hp.guide = g, hp.M = M;
             post(&hp.go, &hp.sleepers, g + 1);
@@ -426,7 +393,7 @@ int pgchtc_frame(const int *cfg, const float *const *units, const double *norm, 
             wait_for(&hp.done, &hp.sleepers, g + 1);
         } else {
             backbone_step(cfg, unit, x, M, buf, ratio);
-            if (residual) residual_step(cfg, unit + backbone_floats(cfg), x, M, caches[g], slot, seen, buf + part, tr);
+            if (residual) residual_step(cfg, unit, unit.f + backbone_floats(cfg), x, M, caches[g], slot, seen, buf + part, tr);
         }
         add_log_ratio(ratio, residual ? tr : NULL, M, bound, log_t);
         memcpy(out + 3 * (g + 1), log_t, 3 * sizeof(double)); /* set g + 2 is final after guide g + 1 */

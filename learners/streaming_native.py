@@ -41,6 +41,7 @@ from learners.cascade import LOG_RATIO_BOUND, Cascade, folded_backbone
 from learners.thread_choice import ThreadChooser
 
 SOURCE = Path(__file__).with_name("streaming_kernel.c")
+HEADER = SOURCE.with_name("streaming_gemm.h")  # included by SOURCE: its matrix products
 #: The kernel's configuration vector, in the order of its ``C_*`` enum.
 CONFIG_FIELDS = (
     "n_sets",
@@ -153,7 +154,7 @@ def _load() -> ctypes.CDLL:
     if cc is None:
         raise KernelUnavailable("no C compiler found (set CC, or install gcc or clang)")
     key = hashlib.sha256(
-        SOURCE.read_bytes() + cc.encode() + repr(_FLAG_SETS).encode() + _cpu_signature().encode()
+        SOURCE.read_bytes() + HEADER.read_bytes() + cc.encode() + repr(_FLAG_SETS).encode() + _cpu_signature().encode()
     ).hexdigest()[:16]
     target = cache_dir() / f"streaming_kernel-{key}.so"
     if not target.exists():
@@ -163,13 +164,14 @@ def _load() -> ctypes.CDLL:
     except OSError as e:
         raise KernelUnavailable(f"loading {target} failed: {e}") from e
     vp, i32, f32 = ctypes.c_void_p, ctypes.c_int, ctypes.c_float
-    lib.pgchtc_frame.argtypes = [vp, vp, vp, f32, vp, vp, vp, i32, i32, vp, vp, i32]
+    lib.pgchtc_frame.argtypes = [vp, vp, vp, vp, f32, vp, vp, vp, i32, i32, vp, vp, i32]
     lib.pgchtc_frame.restype = i32
     lib.pgchtc_unit_floats.argtypes = [vp]
     lib.pgchtc_unit_floats.restype = ctypes.c_long
     lib.pgchtc_cache_floats.argtypes = [vp, i32]
     lib.pgchtc_cache_floats.restype = ctypes.c_long
     lib.pgchtc_erf.argtypes = [vp, vp, i32]
+    lib.pgchtc_half_to_float.argtypes = [vp, vp, i32]
     if lib.pgchtc_cfg_len() != len(CONFIG_FIELDS):
         raise KernelUnavailable(f"{target} does not match this version of tendon-id")
     return lib
@@ -252,6 +254,22 @@ def _pack_unit(unit) -> np.ndarray:
         return np.ascontiguousarray(np.concatenate([_as_f32(p) for p in parts]), dtype=np.float32)
 
 
+#: Weight precisions of the native engine: float32 (the reference) or an IEEE binary16 copy.
+WEIGHT_FORMATS = ("float32", "float16")
+FLOAT16_MAX = float(np.finfo(np.float16).max)
+
+
+def _half_copy(packed: np.ndarray, unit: int) -> np.ndarray:
+    """A packed unit as binary16 bits (round to nearest even), for the kernel's half-precision products."""
+    big = float(np.max(np.abs(packed), initial=0.0))
+    if not np.isfinite(big) or big > FLOAT16_MAX:
+        raise ValueError(
+            f"weights='float16': unit {unit} has a parameter of magnitude {big:.3g}, beyond float16's "
+            f"{FLOAT16_MAX:g}; stream this model with weights='float32'"
+        )
+    return packed.astype(np.float16).view(np.uint16)
+
+
 def unsupported(cascade: Cascade) -> str | None:
     """Why the kernel cannot run this cascade, or None if it can."""
     p = next(cascade.parameters())
@@ -285,6 +303,12 @@ class NativeStreamingCascade:
         to pay for the helper (:func:`helper_thread_pays`, true for the paper preset) and the
         process may use at least two CPUs, else 1.  The helper spins briefly, then sleeps, while
         it waits.  Where it cannot be started, frames run on one thread (``threads`` then reads 1).
+    weights : {"float32", "float16"}, optional
+        The precision the matrix products read their weights in.  ``"float32"`` (default) is
+        the reference, the same frame as batch inference.  ``"float16"`` reads an IEEE
+        half-precision copy of each weight matrix (half the memory traffic; biases, norms,
+        activations and sums stay float32), faster where the weights do not fit a core's cache,
+        at a measured cost in agreement (see the latency benchmark and the streaming guide).
 
     Raises
     ------
@@ -292,7 +316,7 @@ class NativeStreamingCascade:
         If the kernel cannot be built here, or cannot run this cascade.
     """
 
-    def __init__(self, cascade: Cascade, n_sets: int, threads: int | None = None):
+    def __init__(self, cascade: Cascade, n_sets: int, threads: int | str | None = None, weights: str = "float32"):
         why = unsupported(cascade)
         if why:
             raise KernelUnavailable(why)
@@ -300,6 +324,9 @@ class NativeStreamingCascade:
             threads = "auto" if helper_thread_pays(cascade.cfg) and available_cpus() >= 2 else 1
         if threads not in (1, 2, "auto"):
             raise ValueError(f"threads must be 1, 2 or 'auto', got {threads!r}")
+        if weights not in WEIGHT_FORMATS:
+            raise ValueError(f"weights must be one of {', '.join(WEIGHT_FORMATS)}, got {weights!r}")
+        self.weights = weights
         self.chooser = ThreadChooser() if threads == "auto" else None
         self.threads = threads
         self.lib = load_kernel()
@@ -335,6 +362,8 @@ class NativeStreamingCascade:
         ]
         ptrs = lambda arrays: (ctypes.c_void_p * max(1, len(arrays)))(*[a.ctypes.data for a in arrays])  # noqa: E731
         self._unit_ptrs, self._cache_ptrs = ptrs(self.units), ptrs(self.caches)
+        self.half_units = [_half_copy(u, i) for i, u in enumerate(self.units)] if weights == "float16" else []
+        self._half_ptrs = ptrs(self.half_units) if self.half_units else None
         self._out = np.empty((n_sets, 3), np.float64)
         self.reset()
 
@@ -370,6 +399,7 @@ class NativeStreamingCascade:
         rc = self.lib.pgchtc_frame(
             self.config.ctypes.data,
             self._unit_ptrs,
+            self._half_ptrs,
             self.norm.ctypes.data,
             LOG_RATIO_BOUND,
             sin_q.ctypes.data,

@@ -30,6 +30,7 @@ import torch
 from learners.cascade import Cascade, normalised_geometry, normalised_tensions
 from learners.correction import CorrectedCascade
 from learners.presets import preset as get_preset
+from learners.streaming_native import WEIGHT_FORMATS
 from learners.training import fit_feature_norm
 from tendon_id.datasets import load_recipe
 from tendon_id.geometry import sin_q
@@ -128,16 +129,21 @@ def busy_core():
 
 
 def thread_load_table(model, angles: np.ndarray, actuator: np.ndarray, default_threads) -> list[dict]:
-    """Streaming latency of the native engine on 1, 2 and "auto" threads, idle and beside a busy core, in one run.
+    """Streaming latency of the native engine on 1, 2 and "auto" threads, with float32 and float16 weights,
+    idle and beside a busy core, in one run.
 
-    Returns rows ``{"load": "idle" | "one core busy", "threads", "ms_median", "default"}``.
+    Returns rows ``{"load": "idle" | "one core busy", "weights", "threads", "ms_median", "default"}``.
     """
     rows = []
     for load in ("idle", "one core busy"):
         with busy_core() if load != "idle" else contextlib.nullcontext():
-            for threads in (1, 2, "auto"):
-                _, ms = _stream(model.streamer("native", threads=threads), angles, actuator)
-                rows.append({"load": load, "threads": threads, "ms_median": ms, "default": threads == default_threads})
+            for weights in WEIGHT_FORMATS:
+                for threads in (1, 2, "auto"):
+                    _, ms = _stream(model.streamer("native", threads=threads, weights=weights), angles, actuator)
+                    default = threads == default_threads and weights == "float32"
+                    rows.append(
+                        {"load": load, "weights": weights, "threads": threads, "ms_median": ms, "default": default}
+                    )
     return rows
 
 
@@ -153,8 +159,10 @@ def float64_batch(model: PGCHTC, rec) -> np.ndarray:
 
 
 def trained_agreement(recipe: str, seed: int = 0) -> dict:
-    """Streaming against batch inference, both engines, for a ``fast`` model trained on ``posterior-3``,
-    over a held-out planned path (maximum relative difference)."""
+    """Streaming against batch inference, both engines and float16 weights, for a ``fast`` model trained on
+    ``posterior-3``, over a held-out planned path (maximum relative difference); and the RMSE [N] against the
+    simulator's joint-side truth of batch inference and of float16 streaming, whose difference is what the
+    reduced precision costs in accuracy."""
     r = load_recipe(recipe)
     train = simulate(r, "posterior-3", frames=4000, seed=seed).recording
     test = simulate(r, "planned-paths", frames=320, seed=seed + 1).recording
@@ -162,10 +170,17 @@ def trained_agreement(recipe: str, seed: int = 0) -> dict:
     traj = test.select([test.trajectories[0]])
     batch = model.predict(traj)
     out = {}
-    for engine in ("default", "torch"):
-        stream = model.streamer() if engine == "default" else model.streamer("torch")
-        streamed, _ = _stream(stream, traj.angles, traj.actuator)
-        out[engine] = float(np.max(np.abs(streamed / batch - 1.0)))
+    engines = {"default": {}, "torch": {"engine": "torch"}}
+    if model.streamer().engine_name == "native":
+        engines["float16"] = {"weights": "float16"}
+    truth = traj.joint_truth
+    rmse = lambda est: float(np.sqrt(np.mean((est[:, 1:] - truth[:, 1:]) ** 2)))  # noqa: E731  (set 1 is measured)
+    for name, kwargs in engines.items():
+        streamed, _ = _stream(model.streamer(**kwargs), traj.angles, traj.actuator)
+        out[name] = float(np.max(np.abs(streamed / batch - 1.0)))
+        if name == "float16":
+            out["float16_rmse_N"] = rmse(streamed)
+    out["batch_rmse_N"] = rmse(batch)
     out["batch_vs_float64"] = float(np.max(np.abs(batch / float64_batch(model, traj) - 1.0)))
     return out
 
@@ -196,12 +211,16 @@ def latency(
     streamed, stream_ms = _stream(default, angles, act)
     streamed_torch, torch_ms = _stream(model.streamer("torch"), angles, act)
     native_threads = default.engine.threads if default.engine_name == "native" else None
+    rel = lambda a, b: float(np.max(np.abs(a / b - 1.0)))  # noqa: E731
     one_ms = same_bits = None
     if native_threads in (2, "auto"):  # the helper thread's gain, measured in the same run
         streamed_one, one_ms = _stream(model.streamer("native", threads=1), angles, act)
         same_bits = bool(np.array_equal(streamed_one, streamed))
+    f16_ms = f16_rel = None
+    if default.engine_name == "native":  # half-precision weights, default threads
+        streamed_f16, f16_ms = _stream(model.streamer(weights="float16"), angles, act)
+        f16_rel = rel(streamed_f16, batch)
     load_rows = thread_load_table(model, angles, act, native_threads) if default.engine_name == "native" else []
-    rel = lambda a, b: float(np.max(np.abs(a / b - 1.0)))  # noqa: E731
     ns = untrained_ns_model(rec, preset, seed)
     ns_streamed, ns_ms = _stream(ns.streamer(), angles, act)
 
@@ -246,6 +265,8 @@ def latency(
         "native_threads": native_threads,
         "native_one_thread_ms_median": one_ms,
         "native_threads_same_bits": same_bits,
+        "float16_ms_median": f16_ms,
+        "float16_max_rel_diff_vs_batch": f16_rel,
         "thread_load": load_rows,
         "frames": first.n_frames,
         "naive_frames": len(naive_times),
@@ -271,12 +292,22 @@ def format_latency(r: dict) -> str:
             f"{'same bits' if r['native_threads_same_bits'] else 'DIFFERENT bits'})"
         )
     if r.get("thread_load"):
-        cells = ", ".join(
-            f"{row['load']} {row['threads']} thread{'' if row['threads'] == 1 else 's'} {row['ms_median']:.2f} ms"
-            + (" (default)" if row["default"] else "")
-            for row in r["thread_load"]
+        lines.append("  native engine [ms/frame], idle and beside a busy core:")
+        for load in ("idle", "one core busy"):
+            for weights in WEIGHT_FORMATS:
+                cells = ", ".join(
+                    f"{row['threads']} thread{'' if row['threads'] == 1 else 's'} {row['ms_median']:.2f}"
+                    + (" (default)" if row["default"] else "")
+                    for row in r["thread_load"]
+                    if row["load"] == load and row.get("weights", "float32") == weights
+                )
+                lines.append(f"    {load:<13}  {weights} weights: {cells}")
+    if r.get("float16_ms_median"):
+        lines.append(
+            f"  float16 weights, default threads: {r['float16_ms_median']:.2f} ms/frame "
+            f"({r['streaming_ms_median'] / r['float16_ms_median']:.2f}x faster than float32); "
+            f"max relative difference from float32 batch {r['float16_max_rel_diff_vs_batch']:.2e}"
         )
-        lines.append(f"  native engine, idle and beside a busy core: {cells}")
     if r["engine"] != "torch":
         lines.append(
             f"  streaming, torch engine: {r['torch_streaming_ms_median']:.2f} ms/frame "
@@ -301,4 +332,9 @@ def format_latency(r: dict) -> str:
             f"({r['engine']} engine), "
             f"{a['torch']:.2e} (torch engine); batch is {a['batch_vs_float64']:.2e} from float64"
         )
+        if "float16" in a:
+            lines.append(
+                f"  trained fast model, float16 weights: {a['float16']:.2e} from batch; RMSE against the "
+                f"simulator's truth {a['float16_rmse_N']:.3f} N (float32 batch {a['batch_rmse_N']:.3f} N)"
+            )
     return "\n".join(lines)

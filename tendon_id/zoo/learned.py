@@ -13,7 +13,7 @@ from learners.cascade import Cascade, CascadeInputs, StreamingCascade
 from learners.loss import LossWeights
 from learners.presets import UnitConfig
 from learners.presets import preset as get_preset
-from learners.streaming_native import KernelUnavailable, NativeStreamingCascade
+from learners.streaming_native import WEIGHT_FORMATS, KernelUnavailable, NativeStreamingCascade
 from learners.streaming_native import disabled as native_disabled
 from learners.training import Sequences, TrainingError, fit_feature_norm, train_two_stage
 from tendon_id.data import Recording
@@ -260,10 +260,12 @@ class PGCHTC(GuardedCascade):
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
         return chain
 
-    def streamer(self, engine: str = "auto", threads: int | str | None = None) -> PGCHTCStream:
+    def streamer(
+        self, engine: str = "auto", threads: int | str | None = None, weights: str = "float32"
+    ) -> PGCHTCStream:
         """A frame-by-frame estimator with causal caches (O(1) per frame).
 
-        See :class:`PGCHTCStream` for ``engine`` and ``threads``.
+        See :class:`PGCHTCStream` for ``engine``, ``threads`` and ``weights``.
         """
         self.check_fitted()
         if self.uses_prior_:
@@ -272,7 +274,7 @@ class PGCHTC(GuardedCascade):
                 "fallback=True), which PG-CHTC's engines do not stream; stream pg-chtc-ns instead, whose correction "
                 "is kept only where it helps"
             )
-        return PGCHTCStream(self, engine, threads)
+        return PGCHTCStream(self, engine, threads, weights)
 
     # ---- persistence ----------------------------------------------------------------------
     def _state(self):
@@ -322,6 +324,12 @@ class PGCHTCStream:
         that has been faster lately (a helper pays only where a second core is free).  Default:
         ``"auto"`` where the units are large enough for a helper to pay and the process may use
         two CPUs, else 1.
+    weights : {"float32", "float16"}
+        Native engine only: the precision its matrix products read the weights in.
+        ``"float32"`` (default) is the reference; ``"float16"`` halves the weights' memory
+        traffic, at the agreement the latency benchmark measures
+        (:class:`~learners.streaming_native.NativeStreamingCascade`).  It selects the native
+        engine under ``engine="auto"``.
 
     Attributes
     ----------
@@ -329,18 +337,26 @@ class PGCHTCStream:
         The engine in use, ``"native"`` or ``"torch"``.
     """
 
-    def __init__(self, model: PGCHTC, engine: str = "auto", threads: int | str | None = None):
+    def __init__(self, model: PGCHTC, engine: str = "auto", threads: int | str | None = None, weights: str = "float32"):
         if engine not in STREAM_ENGINES:
             raise ConfigError(f"engine must be one of {', '.join(STREAM_ENGINES)}; got {engine!r}")
         if threads not in (None, 1, 2, "auto"):
             raise ConfigError(f"threads must be 1, 2 or 'auto'; got {threads!r}")
+        if weights not in WEIGHT_FORMATS:
+            raise ConfigError(f"weights must be one of {', '.join(WEIGHT_FORMATS)}; got {weights!r}")
+        if weights != "float32":
+            if engine == "torch":
+                raise ConfigError(f"weights={weights!r} needs the native engine; the torch engine computes in float32")
+            engine = "native"
         self.model = model
         self.alpha0 = model.geometry_.alpha_0
         self.engine_name = "torch"
         if engine in ("auto", "native"):
             try:
-                self.engine = NativeStreamingCascade(model.cascade_, model.n_modules_, threads)
+                self.engine = NativeStreamingCascade(model.cascade_, model.n_modules_, threads, weights)
                 self.engine_name = "native"
+            except ValueError as exc:  # weights beyond float16's range
+                raise ConfigError(str(exc)) from None
             except KernelUnavailable as exc:
                 if engine == "native":
                     raise TendonIdError(f"the native streaming engine is unavailable: {exc}") from None
