@@ -17,7 +17,8 @@ tree's).  Measured, on the machine it runs on:
     :func:`tendon_id.identifiability.analyse` of 4 000 terminal-only frames of ``snake12-paper``.
 ``streaming``
     The paper preset's native streaming engine (untrained weights: latency does not depend on
-    them), N = 12, on 1 and 2 threads, idle and beside a process that keeps one core busy.
+    them), N = 12, on 1 and 2 threads (and "auto", and float16 weights, where the tree has them),
+    idle and beside a process that keeps one core busy.
 """
 
 from __future__ import annotations
@@ -81,14 +82,17 @@ first = rec.select([rec.trajectories[0]])
 model = untrained_model(rec, "paper", 0)
 default = model.streamer()
 AUTO = hasattr(default.engine, "chooser")  # the "auto" thread count exists after the change only
+HALF = hasattr(default.engine, "weights")  # so do float16 weights
 rows = []
 for load in ("idle", "one core busy"):
     proc = subprocess.Popen([sys.executable, "-c", "while True: pass"]) if load != "idle" else None
     try:
         if proc: time.sleep(0.3)
-        for threads in (1, 2, "auto") if AUTO else (1, 2):
-            _, ms = _stream(model.streamer("native", threads=threads), first.angles, first.actuator)
-            rows.append({"load": load, "threads": threads, "ms_median": ms})
+        for weights in ("float32", "float16") if HALF else ("float32",):
+            for threads in (1, 2, "auto") if AUTO else (1, 2):
+                kw = {"weights": weights} if HALF else {}
+                _, ms = _stream(model.streamer("native", threads=threads, **kw), first.angles, first.actuator)
+                rows.append({"load": load, "weights": weights, "threads": threads, "ms_median": ms})
     finally:
         if proc: proc.kill(); proc.wait()
 print(json.dumps({"default_threads": default.engine.threads, "engine": default.engine_name, "rows": rows}))

@@ -97,10 +97,12 @@ void pgchtc_erf(const float *x, float *y, int n) { MAP_LANES(erf_rational, x, y,
  * the compiler may not reorder (IEEE), so it runs at the adder's latency, not its rate.
  * A different order of the same sum: agreement with torch is to float32 rounding, as for
  * the matrix products. */
-static inline float hsum(vec v) {
-    float s = 0.f;
-    for (int j = 0; j < VL; j++) s += v[j];
-    return s;
+static inline float hsum(vec v) { /* pairwise: log2(VL) dependent adds, not VL */
+    float t[VL];
+    memcpy(t, &v, sizeof t);
+    for (int w = VL / 2; w >= 1; w /= 2)
+        for (int j = 0; j < w; j++) t[j] += t[j + w];
+    return t[0];
 }
 
 static inline float dot(const float *a, const float *b, int n) {
@@ -207,7 +209,7 @@ __attribute__((noinline)) static void residual_step(const int *cfg, params_t U, 
                 memcpy(V_ + (size_t)slot * dk, q + 2 * D, dk * sizeof(float));
                 float sc[W], mx = -INFINITY;
                 for (int w = 0; w < W; w++) {
-                    int lag = ((slot - w) % W + W) % W;
+                    int lag = slot >= w ? slot - w : slot - w + W; /* (slot - w) mod W, without a division */
                     if (lag > seen) { sc[w] = -INFINITY; continue; }
                     sc[w] = dot(q, K_ + (size_t)w * dk, dk) * scale + lag_bias[hd * W + lag];
                     if (sc[w] > mx) mx = sc[w];
@@ -215,10 +217,22 @@ __attribute__((noinline)) static void residual_step(const int *cfg, params_t U, 
                 float z = 0.f;
                 for (int w = 0; w < W; w++) { sc[w] = sc[w] == -INFINITY ? 0.f : expf(sc[w] - mx); z += sc[w]; }
                 float *o = att + (size_t)s * D + hd * dk;
-                for (int w = 0; w < W; w++) sc[w] /= z;
-                /* o = sum_w p_w V_w, VL columns at a time summed in a register over the lags (the
-                 * same sums in the same order as column by column, without a store per lag). */
+                float inv_z = 1.0f / z; /* one division, not one per lag */
+                for (int w = 0; w < W; w++) sc[w] *= inv_z;
+                /* o = sum_w p_w V_w, summed over the lags in registers, four vectors of columns at
+                 * once so that four chains of dependent FMAs overlap (one chain waits on the FMA's
+                 * latency).  Each column's sum runs over the lags in order either way. */
                 int i = 0;
+                for (; i + 4 * VL <= dk; i += 4 * VL) {
+                    vec a0 = {0}, a1 = {0}, a2 = {0}, a3 = {0};
+                    for (int w = 0; w < W; w++) {
+                        if (sc[w] == 0.f) continue;
+                        const float *v = V_ + (size_t)w * dk + i;
+                        a0 += sc[w] * vload(v), a1 += sc[w] * vload(v + VL);
+                        a2 += sc[w] * vload(v + 2 * VL), a3 += sc[w] * vload(v + 3 * VL);
+                    }
+                    vstore(o + i, a0), vstore(o + i + VL, a1), vstore(o + i + 2 * VL, a2), vstore(o + i + 3 * VL, a3);
+                }
                 for (; i + VL <= dk; i += VL) {
                     vec acc = {0};
                     for (int w = 0; w < W; w++)
@@ -278,8 +292,11 @@ long pgchtc_cache_floats(const int *cfg, int g) {
     return 2L * cfg[C_LAYERS] * (cfg[C_N_SETS] - 1 - g) * cfg[C_WINDOW] * cfg[C_D];
 }
 
-/* What the g_phi helper thread of a frame works on: guide `step` is posted when `go` reaches
- * step + 1 and finished when `done` does; go = -1 ends the thread. */
+/* The g_phi helper thread: started once per engine (pgchtc_helper_new) and ended by
+ * pgchtc_helper_free, so that a frame pays no thread start.  Guide steps are numbered across
+ * frames (unsigned, wrapping): a step is posted when `go` reaches its number and finished when
+ * `done` does; `quit` ends the thread.  The frame fields are written by the calling thread
+ * before it posts a step, and read by the helper after it sees the post (seq_cst). */
 typedef struct {
     const int *cfg;
     const float *const *units;
@@ -289,8 +306,11 @@ typedef struct {
     const float *x; /* the posted guide's unit inputs */
     int guide, M;
     float *buf, *tr;
-    atomic_int go, done;
+    unsigned seq; /* the last step posted; the calling thread's alone */
+    atomic_uint go, done;
+    atomic_int quit;
     atomic_int sleepers; /* threads blocked (or about to block) in wait_for */
+    pthread_t thread;
 } helper_t;
 
 /* Pauses a waiter spins before it blocks: about 50-200 us on x86, longer than the usual wait at a
@@ -305,10 +325,13 @@ static void pause_once(void) {
 #endif
 }
 
-static int wait_for(atomic_int *flag, atomic_int *sleepers, int value) {
+/* Waits until *flag == value (returns 0) or, with quit given, until *quit is set (returns -1). */
+static int wait_for(atomic_uint *flag, atomic_int *sleepers, unsigned value, atomic_int *quit) {
     for (unsigned spins = 0;; spins++) {
-        int v = atomic_load_explicit(flag, memory_order_seq_cst);
-        if (v == value || v < 0) return v;
+        unsigned v = atomic_load_explicit(flag, memory_order_seq_cst);
+        /* quit is read after the flag: pgchtc_helper_free sets it before it changes the flag */
+        if (quit && atomic_load_explicit(quit, memory_order_seq_cst)) return -1;
+        if (v == value) return 0;
         if (spins < SPIN_PAUSES) {
             pause_once();
             continue;
@@ -327,7 +350,7 @@ static int wait_for(atomic_int *flag, atomic_int *sleepers, int value) {
     }
 }
 
-static void post(atomic_int *flag, atomic_int *sleepers, int value) {
+static void post(atomic_uint *flag, atomic_int *sleepers, unsigned value) {
     atomic_store_explicit(flag, value, memory_order_seq_cst);
 #if defined(__linux__)
     if (atomic_load_explicit(sleepers, memory_order_seq_cst) > 0)
@@ -343,26 +366,56 @@ static params_t unit_params(const int *cfg, const float *const *units, const uin
 
 static void *helper_main(void *arg) {
     helper_t *hp = arg;
-    for (int step = 0;; step++) {
-        if (wait_for(&hp->go, &hp->sleepers, step + 1) < 0) return NULL;
+    for (unsigned step = 1;; step++) {
+        if (wait_for(&hp->go, &hp->sleepers, step, &hp->quit) < 0) return NULL;
         const int *cfg = hp->cfg;
         params_t U = unit_params(cfg, hp->units, hp->half_units, hp->guide);
-        residual_step(cfg, U, U.f + backbone_floats(cfg), hp->x, hp->M, hp->caches[hp->guide], hp->slot, hp->seen, hp->buf, hp->tr);
-        post(&hp->done, &hp->sleepers, step + 1);
+        residual_step(cfg, U, U.f + backbone_floats(cfg), hp->x, hp->M, hp->caches[hp->guide], hp->slot, hp->seen,
+                      hp->buf, hp->tr);
+        post(&hp->done, &hp->sleepers, step);
     }
+}
+
+/* A helper thread for pgchtc_frame's threads = 2, or NULL if it cannot be started. */
+void *pgchtc_helper_new(void) {
+    helper_t *hp = calloc(1, sizeof *hp);
+    if (!hp) return NULL;
+    atomic_init(&hp->go, 0);
+    atomic_init(&hp->done, 0);
+    atomic_init(&hp->quit, 0);
+    atomic_init(&hp->sleepers, 0);
+    if (pthread_create(&hp->thread, NULL, helper_main, hp) != 0) {
+        free(hp);
+        return NULL;
+    }
+    return hp;
+}
+
+/* Ends the helper thread and frees it.  Not while a frame runs on it. */
+void pgchtc_helper_free(void *helper) {
+    helper_t *hp = helper;
+    if (!hp) return;
+    atomic_store_explicit(&hp->quit, 1, memory_order_seq_cst);
+    /* change the flag it may sleep on, so that its futex wait cannot miss the wake-up */
+    atomic_fetch_add_explicit(&hp->go, 0x80000000u, memory_order_seq_cst);
+#if defined(__linux__)
+    syscall(SYS_futex, (int *)&hp->go, FUTEX_WAKE_PRIVATE, INT_MAX, NULL, NULL, 0);
+#endif
+    pthread_join(hp->thread, NULL);
+    free(hp);
 }
 
 /* The frame: ln T_hat of every set at its own joint, written to out (n_sets, 3).
  * Inputs and output in float64: norm, the feature mean (8) then std (8); sin_q (n_sets - 1, 4);
  * alpha (n_sets - 1); log_act and out (n_sets, 3).  seen: min(frames already seen, window - 1).
- * threads: 1, or 2 to run g_phi on a helper thread beside f_theta (same result).
+ * threads: 1, or 2 to run g_phi on the helper thread (pgchtc_helper_new) beside f_theta (same result).
  * half_units: NULL, or per unit a binary16 copy of units[u] whose matrices the products read
  * (streaming_gemm.h says why).
- * Returns 0; 2 if two threads were asked for but the helper could not be started, so the
- * frame ran on one (same result); 1 if the scratch memory could not be had. */
+ * Returns 0; 2 if two threads were asked for without a helper, so the frame ran on one (same
+ * result); 1 if the scratch memory could not be had. */
 int pgchtc_frame(const int *cfg, const float *const *units, const uint16_t *const *half_units, const double *norm, float bound, const double *sin_q,
                  const double *alpha, const double *log_act, int slot, int seen, float *const *caches, double *out,
-                 int threads) {
+                 int threads, void *helper) {
     int n = cfg[C_N_SETS], G = cfg[C_N_GUIDES], residual = cfg[C_RESIDUAL];
     int M0 = n - 1;
     size_t part = scratch_floats(cfg, M0);
@@ -370,12 +423,12 @@ int pgchtc_frame(const int *cfg, const float *const *units, const uint16_t *cons
     double *log_t = malloc(sizeof(double) * (size_t)M0 * 3);
     if (!buf || !log_t) { free(buf); free(log_t); return 1; }
     float *x = buf + 2 * part, *ratio = x + (size_t)M0 * 8, *tr = ratio + (size_t)M0 * 3;
-    helper_t hp = {cfg, units, half_units, caches, slot, seen, x, 0, 0, buf + part, tr};
-    atomic_init(&hp.go, 0);
-    atomic_init(&hp.done, 0);
-    atomic_init(&hp.sleepers, 0);
-    pthread_t helper;
-    int two = residual && threads >= 2 && M0 > 0 && pthread_create(&helper, NULL, helper_main, &hp) == 0;
+    helper_t *hp = helper;
+    int two = residual && threads >= 2 && M0 > 0 && hp;
+    if (two) {
+        hp->cfg = cfg, hp->units = units, hp->half_units = half_units, hp->caches = caches;
+        hp->slot = slot, hp->seen = seen, hp->x = x, hp->buf = buf + part, hp->tr = tr;
+    }
     memcpy(out, log_act, 3 * sizeof(double)); /* set 1 passes no guide */
     memcpy(log_t, log_act + 3, (size_t)M0 * 3 * sizeof(double));
     int M = M0;
@@ -387,10 +440,11 @@ int pgchtc_frame(const int *cfg, const float *const *units, const uint16_t *cons
         }
         params_t unit = unit_params(cfg, units, half_units, g);
         if (two) {
-            hp.guide = g, hp.M = M;
-            post(&hp.go, &hp.sleepers, g + 1);
+            hp->guide = g, hp->M = M;
+            unsigned step = ++hp->seq;
+            post(&hp->go, &hp->sleepers, step);
             backbone_step(cfg, unit, x, M, buf, ratio);
-            wait_for(&hp.done, &hp.sleepers, g + 1);
+            wait_for(&hp->done, &hp->sleepers, step, NULL);
         } else {
             backbone_step(cfg, unit, x, M, buf, ratio);
             if (residual) residual_step(cfg, unit, unit.f + backbone_floats(cfg), x, M, caches[g], slot, seen, buf + part, tr);
@@ -399,10 +453,6 @@ int pgchtc_frame(const int *cfg, const float *const *units, const uint16_t *cons
         memcpy(out + 3 * (g + 1), log_t, 3 * sizeof(double)); /* set g + 2 is final after guide g + 1 */
         memmove(log_t, log_t + 3, (size_t)(M - 1) * 3 * sizeof(double));
         M--;
-    }
-    if (two) {
-        post(&hp.go, &hp.sleepers, -1);
-        pthread_join(helper, NULL);
     }
     free(buf);
     free(log_t);

@@ -32,7 +32,9 @@ import sys
 import tempfile
 import threading
 import time
+import weakref
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -164,7 +166,10 @@ def _load() -> ctypes.CDLL:
     except OSError as e:
         raise KernelUnavailable(f"loading {target} failed: {e}") from e
     vp, i32, f32 = ctypes.c_void_p, ctypes.c_int, ctypes.c_float
-    lib.pgchtc_frame.argtypes = [vp, vp, vp, vp, f32, vp, vp, vp, i32, i32, vp, vp, i32]
+    lib.pgchtc_frame.argtypes = [vp, vp, vp, vp, f32, vp, vp, vp, i32, i32, vp, vp, i32, vp]
+    lib.pgchtc_helper_new.argtypes = []
+    lib.pgchtc_helper_new.restype = vp
+    lib.pgchtc_helper_free.argtypes = [vp]
     lib.pgchtc_frame.restype = i32
     lib.pgchtc_unit_floats.argtypes = [vp]
     lib.pgchtc_unit_floats.restype = ctypes.c_long
@@ -172,6 +177,7 @@ def _load() -> ctypes.CDLL:
     lib.pgchtc_cache_floats.restype = ctypes.c_long
     lib.pgchtc_erf.argtypes = [vp, vp, i32]
     lib.pgchtc_half_to_float.argtypes = [vp, vp, i32]
+    lib.pgchtc_panel_width.restype = i32
     if lib.pgchtc_cfg_len() != len(CONFIG_FIELDS):
         raise KernelUnavailable(f"{target} does not match this version of tendon-id")
     return lib
@@ -221,37 +227,58 @@ def _as_f32(t: torch.Tensor) -> np.ndarray:
     return t.detach().to("cpu", torch.float32).numpy().ravel()
 
 
-def _pack_unit(unit) -> np.ndarray:
-    """One unit's parameters in the kernel's order (see ``guide_step`` in streaming_kernel.c).
+def panels(weight: np.ndarray, width: int) -> np.ndarray:
+    """A transposed Linear weight (in, out) in the kernel's panel layout, flat.
 
-    Linear weights are stored transposed, (in, out); ``f_theta``'s BatchNorm is folded in.
+    Its ``out // width`` column panels, each (in, width) row-major, then the last ``out % width``
+    columns row-major (``streaming_gemm.h`` says why).
+    """
+    k, n = weight.shape
+    full = n - n % width
+    body = weight[:, :full].reshape(k, full // width, width).transpose(1, 0, 2)
+    return np.concatenate([body.ravel(), weight[:, full:].ravel()])
+
+
+def _pack_unit(unit, width: int) -> np.ndarray:
+    """One unit's parameters in the kernel's order (see ``backbone_step`` and ``residual_step`` in
+    streaming_kernel.c).
+
+    Linear weights are transposed, (in, out), and laid out in panels of ``width`` columns
+    (:func:`panels`); ``f_theta``'s BatchNorm is folded in.
     """
     parts = []
     for w, b in folded_backbone(unit.backbone):
-        parts += [w, b]
+        parts += [Weight(w), b]
     r = unit.residual
     if r is not None:
-        parts += [r.embed.weight.T, r.embed.bias]
+        parts += [Weight(r.embed.weight.T), r.embed.bias]
         for layer in r.layers:
             a, ff1, ff2 = layer.attn, layer.ff[0], layer.ff[2]
             parts += [
                 layer.norm1.weight,
                 layer.norm1.bias,
-                a.qkv.weight.T,
+                Weight(a.qkv.weight.T),
                 a.qkv.bias,
-                a.out.weight.T,
+                Weight(a.out.weight.T),
                 a.out.bias,
                 a.lag_bias,
                 layer.norm2.weight,
                 layer.norm2.bias,
-                ff1.weight.T,
+                Weight(ff1.weight.T),
                 ff1.bias,
-                ff2.weight.T,
+                Weight(ff2.weight.T),
                 ff2.bias,
             ]
-        parts += [r.norm.weight, r.norm.bias, r.head.weight.T, r.head.bias]
+        parts += [r.norm.weight, r.norm.bias, Weight(r.head.weight.T), r.head.bias]
     with torch.no_grad():
-        return np.ascontiguousarray(np.concatenate([_as_f32(p) for p in parts]), dtype=np.float32)
+        flat = [panels(_as_f32(p.t).reshape(p.t.shape), width) if isinstance(p, Weight) else _as_f32(p) for p in parts]
+    return np.ascontiguousarray(np.concatenate(flat), dtype=np.float32)
+
+
+class Weight(NamedTuple):
+    """A Linear weight (in, out) in a unit's parameter list: packed in panels, unlike biases and norms."""
+
+    t: torch.Tensor
 
 
 #: Weight precisions of the native engine: float32 (the reference) or an IEEE binary16 copy.
@@ -330,6 +357,15 @@ class NativeStreamingCascade:
         self.chooser = ThreadChooser() if threads == "auto" else None
         self.threads = threads
         self.lib = load_kernel()
+        # One helper thread for the engine's life (a thread start per frame cost about 40 us); it
+        # sleeps in the kernel between frames, and ends when the engine is collected.
+        self._helper = None
+        if threads != 1 and cascade.cfg.temporal_residual:
+            self._helper = self.lib.pgchtc_helper_new()
+            if self._helper:
+                weakref.finalize(self, self.lib.pgchtc_helper_free, self._helper)
+            else:  # could not be started: every frame on one thread
+                self.threads, self.chooser = 1, None
         cfg = cascade.cfg
         hidden = list(cfg.hidden) + [0] * (MAX_HIDDEN - len(cfg.hidden))
         self.config = np.array(
@@ -349,7 +385,7 @@ class NativeStreamingCascade:
             dtype=np.int32,
         )
         self.n_sets, self.window = n_sets, cfg.window
-        self.units = [_pack_unit(u) for u in cascade.units]
+        self.units = [_pack_unit(u, self.lib.pgchtc_panel_width()) for u in cascade.units]
         expected = self.lib.pgchtc_unit_floats(self.config.ctypes.data)
         if any(u.size != expected for u in self.units):  # the packer and the kernel disagree on the layout
             raise KernelUnavailable(
@@ -365,6 +401,8 @@ class NativeStreamingCascade:
         self.half_units = [_half_copy(u, i) for i, u in enumerate(self.units)] if weights == "float16" else []
         self._half_ptrs = ptrs(self.half_units) if self.half_units else None
         self._out = np.empty((n_sets, 3), np.float64)
+        # addresses of the arrays the engine keeps, taken once (each .ctypes costs about a microsecond)
+        self._config_ptr, self._norm_ptr, self._out_ptr = (a.ctypes.data for a in (self.config, self.norm, self._out))
         self.reset()
 
     def reset(self) -> None:
@@ -397,10 +435,10 @@ class NativeStreamingCascade:
         threads = self.chooser.next() if self.chooser is not None else self.threads
         start = time.perf_counter()
         rc = self.lib.pgchtc_frame(
-            self.config.ctypes.data,
+            self._config_ptr,
             self._unit_ptrs,
             self._half_ptrs,
-            self.norm.ctypes.data,
+            self._norm_ptr,
             LOG_RATIO_BOUND,
             sin_q.ctypes.data,
             alpha.ctypes.data,
@@ -408,14 +446,13 @@ class NativeStreamingCascade:
             self.n_seen % self.window,
             min(self.n_seen, self.window - 1),
             self._cache_ptrs,
-            self._out.ctypes.data,
+            self._out_ptr,
             threads,
+            self._helper,
         )
         if self.chooser is not None and rc == 0:
             self.chooser.record(threads, time.perf_counter() - start)
-        if rc == 2:  # the helper thread could not be started: this frame, and the next, on one
-            self.threads, self.chooser = 1, None
-        elif rc != 0:
+        if rc != 0:
             raise MemoryError("the streaming kernel could not allocate its scratch memory")
         self.n_seen += 1
         return self._out.copy()

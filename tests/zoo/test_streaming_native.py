@@ -221,3 +221,25 @@ def test_float16_refuses_weights_beyond_its_range(kernel):
         sn.NativeStreamingCascade(cascade, 4, weights="float16")
     with pytest.raises(ValueError, match="weights must be"):
         sn.NativeStreamingCascade(cascade, 4, weights="int8")
+
+
+def test_helper_threads_end_with_their_engines(kernel):
+    """One helper thread per two-thread engine, started once and ended when the engine is collected."""
+    import gc
+    import os
+
+    def threads_now():
+        return len(os.listdir(f"/proc/{os.getpid()}/task"))
+
+    if not os.path.isdir(f"/proc/{os.getpid()}/task"):
+        pytest.skip("needs /proc to count threads")
+    cascade = _random_cascade(4, True, True)
+    frame = _frames(4, 1, seed=0)[0]
+    before = threads_now()
+    engines = [sn.NativeStreamingCascade(cascade, 4, threads=2) for _ in range(5)]
+    for e in engines:
+        e.step(*frame)
+    assert threads_now() == before + 5
+    del engines, e
+    gc.collect()
+    assert threads_now() == before
