@@ -359,13 +359,9 @@ class NativeStreamingCascade:
         self.lib = load_kernel()
         # One helper thread for the engine's life (a thread start per frame cost about 40 us); it
         # sleeps in the kernel between frames, and ends when the engine is collected.
-        self._helper = None
+        self._helper = self._pid = None
         if threads != 1 and cascade.cfg.temporal_residual:
-            self._helper = self.lib.pgchtc_helper_new()
-            if self._helper:
-                weakref.finalize(self, self.lib.pgchtc_helper_free, self._helper)
-            else:  # could not be started: every frame on one thread
-                self.threads, self.chooser = 1, None
+            self._start_helper()
         cfg = cascade.cfg
         hidden = list(cfg.hidden) + [0] * (MAX_HIDDEN - len(cfg.hidden))
         self.config = np.array(
@@ -405,6 +401,13 @@ class NativeStreamingCascade:
         self._config_ptr, self._norm_ptr, self._out_ptr = (a.ctypes.data for a in (self.config, self.norm, self._out))
         self.reset()
 
+    def _start_helper(self) -> None:
+        self._helper, self._pid = self.lib.pgchtc_helper_new(), os.getpid()
+        if self._helper:
+            weakref.finalize(self, self.lib.pgchtc_helper_free, self._helper)
+        else:  # could not be started: every frame on one thread
+            self.threads, self.chooser = 1, None
+
     def reset(self) -> None:
         """Forget the history (call at the start of a trajectory)."""
         for c in self.caches:
@@ -432,6 +435,8 @@ class NativeStreamingCascade:
                 f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, 3); "
                 f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}"
             )
+        if self._helper and self._pid != os.getpid():  # a forked child has the handle but not the thread
+            self._start_helper()
         threads = self.chooser.next() if self.chooser is not None else self.threads
         start = time.perf_counter()
         rc = self.lib.pgchtc_frame(

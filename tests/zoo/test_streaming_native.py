@@ -243,3 +243,30 @@ def test_helper_threads_end_with_their_engines(kernel):
     del engines, e
     gc.collect()
     assert threads_now() == before
+
+
+def test_a_forked_child_streams_with_its_own_helper(kernel):
+    """A fork copies the engine but not its helper thread: the child starts its own instead of waiting forever."""
+    import multiprocessing as mp
+
+    if "fork" not in mp.get_all_start_methods():
+        pytest.skip("no fork here")
+    cascade = _random_cascade(5, True, True)
+    frames = _frames(5, 4, seed=6)
+    engine = sn.NativeStreamingCascade(cascade, 5, threads=2)
+    engine.step(*frames[0])  # the parent's helper has run
+    expected = sn.NativeStreamingCascade(cascade, 5, threads=1)
+    want = [expected.step(*f) for f in frames][1:]
+    ctx = mp.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=lambda: send.send([engine.step(*f) for f in frames[1:]]))  # fork: not pickled
+    child.start()
+    try:
+        assert receive.poll(60), "the forked child hung waiting for a helper thread it does not have"
+        got = receive.recv()
+    finally:
+        child.join(10)
+        if child.is_alive():
+            child.kill()
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
