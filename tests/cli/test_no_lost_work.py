@@ -34,6 +34,18 @@ def _files(folder):
     return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
 
 
+@pytest.fixture
+def ctrl_c_raises():
+    """Ctrl-C raises KeyboardInterrupt, as in a terminal, for tests that send a real SIGINT.
+
+    A process started in the background by a shell without job control inherits SIGINT ignored,
+    and Python then leaves it ignored; these tests are about the terminal's case.
+    """
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("data") / "p6.parquet"
@@ -164,7 +176,7 @@ def test_ctrl_c_while_writing_a_file_leaves_no_part_of_it(recording, tmp_path, m
 
 
 def test_a_ctrl_c_while_the_model_is_written_is_held_until_both_files_are_whole(
-    recording, tmp_path, monkeypatch, capsys
+    recording, tmp_path, monkeypatch, capsys, ctrl_c_raises
 ):
     import tendon_id.zoo.estimator as E
 
@@ -201,7 +213,7 @@ def test_ctrl_c_in_the_posterior_keeps_the_calibration_and_names_it(recording, t
     json.loads((out / "calibration.json").read_text())  # whole
 
 
-def test_hold_interrupt_finishes_the_block_then_raises():
+def test_hold_interrupt_finishes_the_block_then_raises(ctrl_c_raises):
     done = []
     with pytest.raises(KeyboardInterrupt):
         with hold_interrupt():
@@ -209,6 +221,20 @@ def test_hold_interrupt_finishes_the_block_then_raises():
             done.append("the rest of the block")
     assert done == ["the rest of the block"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_hold_interrupt_keeps_an_ignored_ctrl_c_ignored():
+    """Where SIGINT is ignored (a background job), a SIGINT inside the block is not turned into an error."""
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        done = []
+        with hold_interrupt():
+            signal.raise_signal(signal.SIGINT)
+            done.append("the rest of the block")
+        assert done == ["the rest of the block"]
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_an_interrupted_atomic_write_removes_its_temporary_file(tmp_path):
