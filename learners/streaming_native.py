@@ -309,6 +309,13 @@ def unsupported(cascade: Cascade) -> str | None:
     return None
 
 
+def _free_helper(lib: ctypes.CDLL, helper: int, pid: int) -> None:
+    """End a helper thread, in the process that started it: a forked child has the handle but not the
+    thread, and joining a thread it does not have could hang it."""
+    if os.getpid() == pid:
+        lib.pgchtc_helper_free(helper)
+
+
 class NativeStreamingCascade:
     """Frame-by-frame inference in the C kernel: the work and the state of :class:`~learners.cascade.StreamingCascade`.
 
@@ -359,8 +366,9 @@ class NativeStreamingCascade:
         self.lib = load_kernel()
         # One helper thread for the engine's life (a thread start per frame cost about 40 us); it
         # sleeps in the kernel between frames, and ends when the engine is collected.
-        self._helper = self._pid = None
-        if threads != 1 and cascade.cfg.temporal_residual:
+        self._helper = self._pid = self._finalizer = None
+        self._wants_helper = threads != 1 and cascade.cfg.temporal_residual
+        if self._wants_helper:
             self._start_helper()
         cfg = cascade.cfg
         hidden = list(cfg.hidden) + [0] * (MAX_HIDDEN - len(cfg.hidden))
@@ -404,9 +412,15 @@ class NativeStreamingCascade:
     def _start_helper(self) -> None:
         self._helper, self._pid = self.lib.pgchtc_helper_new(), os.getpid()
         if self._helper:
-            weakref.finalize(self, self.lib.pgchtc_helper_free, self._helper)
+            self._finalizer = weakref.finalize(self, _free_helper, self.lib, self._helper, self._pid)
         else:  # could not be started: every frame on one thread
-            self.threads, self.chooser = 1, None
+            self.threads, self.chooser, self._wants_helper = 1, None, False
+
+    def close(self) -> None:
+        """End the helper thread now rather than when the engine is collected (a later frame starts another)."""
+        if self._finalizer is not None:
+            self._finalizer()
+        self._helper = self._finalizer = None
 
     def reset(self) -> None:
         """Forget the history (call at the start of a trajectory)."""
@@ -435,8 +449,8 @@ class NativeStreamingCascade:
                 f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, 3); "
                 f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}"
             )
-        if self._helper and self._pid != os.getpid():  # a forked child has the handle but not the thread
-            self._start_helper()
+        if self._wants_helper and (self._helper is None or self._pid != os.getpid()):
+            self._start_helper()  # after close(), or in a forked child, which has the handle but not the thread
         threads = self.chooser.next() if self.chooser is not None else self.threads
         start = time.perf_counter()
         rc = self.lib.pgchtc_frame(

@@ -369,6 +369,12 @@ class PGCHTCStream:
         """Start a new trajectory."""
         self.engine.reset()
 
+    def close(self) -> None:
+        """End the native engine's helper thread now, not when the streamer is collected (a later step
+        starts another).  Nothing to do for the torch engine."""
+        if self.engine_name == "native":
+            self.engine.close()
+
     def step(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
         """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out."""
         frame = unit_inputs(angles, actuator, self.alpha0)

@@ -246,7 +246,8 @@ def test_helper_threads_end_with_their_engines(kernel):
 
 
 def test_a_forked_child_streams_with_its_own_helper(kernel):
-    """A fork copies the engine but not its helper thread: the child starts its own instead of waiting forever."""
+    """A fork copies the engine but not its helper thread: the child starts its own instead of waiting forever,
+    and ending the parent's helper from the child does nothing instead of joining a thread that is not there."""
     import multiprocessing as mp
 
     if "fork" not in mp.get_all_start_methods():
@@ -255,18 +256,46 @@ def test_a_forked_child_streams_with_its_own_helper(kernel):
     frames = _frames(5, 4, seed=6)
     engine = sn.NativeStreamingCascade(cascade, 5, threads=2)
     engine.step(*frames[0])  # the parent's helper has run
+    parents_finalizer = engine._finalizer
     expected = sn.NativeStreamingCascade(cascade, 5, threads=1)
     want = [expected.step(*f) for f in frames][1:]
     ctx = mp.get_context("fork")
     receive, send = ctx.Pipe(duplex=False)
-    child = ctx.Process(target=lambda: send.send([engine.step(*f) for f in frames[1:]]))  # fork: not pickled
+
+    def in_child():  # forked, so not pickled
+        out = [engine.step(*f) for f in frames[1:]]
+        parents_finalizer()  # what collecting the parent's engine object in the child would run
+        engine.close()  # the child's own helper
+        send.send(out)
+
+    child = ctx.Process(target=in_child)
     child.start()
     try:
-        assert receive.poll(60), "the forked child hung waiting for a helper thread it does not have"
+        assert receive.poll(60), "the forked child hung on a helper thread it does not have"
         got = receive.recv()
     finally:
         child.join(10)
         if child.is_alive():
             child.kill()
+    assert child.exitcode == 0
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
+
+
+def test_close_ends_the_helper_and_a_later_frame_starts_another(kernel):
+    import os
+
+    if not os.path.isdir(f"/proc/{os.getpid()}/task"):
+        pytest.skip("needs /proc to count threads")
+    cascade = _random_cascade(4, True, True)
+    frames = _frames(4, 3, seed=7)
+    ref = sn.NativeStreamingCascade(cascade, 4, threads=1)
+    engine = sn.NativeStreamingCascade(cascade, 4, threads=2)
+    tasks = lambda: len(os.listdir(f"/proc/{os.getpid()}/task"))  # noqa: E731
+    np.testing.assert_array_equal(engine.step(*frames[0]), ref.step(*frames[0]))
+    before = tasks()
+    engine.close()
+    assert tasks() == before - 1
+    engine.close()  # twice is fine
+    np.testing.assert_array_equal(engine.step(*frames[1]), ref.step(*frames[1]))
+    assert tasks() == before
