@@ -23,7 +23,7 @@
  *
  * Layouts (float32 unless said, C order):
  *   units[u]  : one unit's parameters, in the order the Python packer writes them
- *               (learners/streaming_native.py, _pack_unit).
+ *               (learners/streaming_pack.py, pack_unit).
  *   half_units[u] : optional, the same as binary16 (uint16 bits).
  *   caches[g] : guide g's ring caches, for each layer keys then values, each
  *               (S_g, H, window, dk) with S_g = n_sets - 1 - g streams.

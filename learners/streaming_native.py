@@ -34,12 +34,12 @@ import threading
 import time
 import weakref
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 import torch
 
-from learners.cascade import LOG_RATIO_BOUND, Cascade, folded_backbone
+from learners.cascade import LOG_RATIO_BOUND, Cascade
+from learners.streaming_pack import WEIGHT_FORMATS, as_f32, half_copy, pack_unit
 from learners.thread_choice import ThreadChooser
 
 SOURCE = Path(__file__).with_name("streaming_kernel.c")
@@ -223,80 +223,6 @@ def helper_thread_pays(cfg) -> bool:
     return min(f, g) >= HELPER_THREAD_MIN_MACS
 
 
-def _as_f32(t: torch.Tensor) -> np.ndarray:
-    return t.detach().to("cpu", torch.float32).numpy().ravel()
-
-
-def panels(weight: np.ndarray, width: int) -> np.ndarray:
-    """A transposed Linear weight (in, out) in the kernel's panel layout, flat.
-
-    Its ``out // width`` column panels, each (in, width) row-major, then the last ``out % width``
-    columns row-major (``streaming_gemm.h`` says why).
-    """
-    k, n = weight.shape
-    full = n - n % width
-    body = weight[:, :full].reshape(k, full // width, width).transpose(1, 0, 2)
-    return np.concatenate([body.ravel(), weight[:, full:].ravel()])
-
-
-def _pack_unit(unit, width: int) -> np.ndarray:
-    """One unit's parameters in the kernel's order (see ``backbone_step`` and ``residual_step`` in
-    streaming_kernel.c).
-
-    Linear weights are transposed, (in, out), and laid out in panels of ``width`` columns
-    (:func:`panels`); ``f_theta``'s BatchNorm is folded in.
-    """
-    parts = []
-    for w, b in folded_backbone(unit.backbone):
-        parts += [Weight(w), b]
-    r = unit.residual
-    if r is not None:
-        parts += [Weight(r.embed.weight.T), r.embed.bias]
-        for layer in r.layers:
-            a, ff1, ff2 = layer.attn, layer.ff[0], layer.ff[2]
-            parts += [
-                layer.norm1.weight,
-                layer.norm1.bias,
-                Weight(a.qkv.weight.T),
-                a.qkv.bias,
-                Weight(a.out.weight.T),
-                a.out.bias,
-                a.lag_bias,
-                layer.norm2.weight,
-                layer.norm2.bias,
-                Weight(ff1.weight.T),
-                ff1.bias,
-                Weight(ff2.weight.T),
-                ff2.bias,
-            ]
-        parts += [r.norm.weight, r.norm.bias, Weight(r.head.weight.T), r.head.bias]
-    with torch.no_grad():
-        flat = [panels(_as_f32(p.t).reshape(p.t.shape), width) if isinstance(p, Weight) else _as_f32(p) for p in parts]
-    return np.ascontiguousarray(np.concatenate(flat), dtype=np.float32)
-
-
-class Weight(NamedTuple):
-    """A Linear weight (in, out) in a unit's parameter list: packed in panels, unlike biases and norms."""
-
-    t: torch.Tensor
-
-
-#: Weight precisions of the native engine: float32 (the reference) or an IEEE binary16 copy.
-WEIGHT_FORMATS = ("float32", "float16")
-FLOAT16_MAX = float(np.finfo(np.float16).max)
-
-
-def _half_copy(packed: np.ndarray, unit: int) -> np.ndarray:
-    """A packed unit as binary16 bits (round to nearest even), for the kernel's half-precision products."""
-    big = float(np.max(np.abs(packed), initial=0.0))
-    if not np.isfinite(big) or big > FLOAT16_MAX:
-        raise ValueError(
-            f"weights='float16': unit {unit} has a parameter of magnitude {big:.3g}, beyond float16's "
-            f"{FLOAT16_MAX:g}; stream this model with weights='float32'"
-        )
-    return packed.astype(np.float16).view(np.uint16)
-
-
 def unsupported(cascade: Cascade) -> str | None:
     """Why the kernel cannot run this cascade, or None if it can."""
     p = next(cascade.parameters())
@@ -389,20 +315,20 @@ class NativeStreamingCascade:
             dtype=np.int32,
         )
         self.n_sets, self.window = n_sets, cfg.window
-        self.units = [_pack_unit(u, self.lib.pgchtc_panel_width()) for u in cascade.units]
+        self.units = [pack_unit(u, self.lib.pgchtc_panel_width()) for u in cascade.units]
         expected = self.lib.pgchtc_unit_floats(self.config.ctypes.data)
         if any(u.size != expected for u in self.units):  # the packer and the kernel disagree on the layout
             raise KernelUnavailable(
                 f"parameter layout mismatch: packed {self.units[0].size} floats, the kernel reads {expected}"
             )
-        self.norm = np.concatenate([_as_f32(cascade.feature_mean), _as_f32(cascade.feature_std)]).astype(np.float64)
+        self.norm = np.concatenate([as_f32(cascade.feature_mean), as_f32(cascade.feature_std)]).astype(np.float64)
         self.caches = [
             np.zeros(max(1, self.lib.pgchtc_cache_floats(self.config.ctypes.data, g)), np.float32)
             for g in range(cascade.n_guides)
         ]
         ptrs = lambda arrays: (ctypes.c_void_p * max(1, len(arrays)))(*[a.ctypes.data for a in arrays])  # noqa: E731
         self._unit_ptrs, self._cache_ptrs = ptrs(self.units), ptrs(self.caches)
-        self.half_units = [_half_copy(u, i) for i, u in enumerate(self.units)] if weights == "float16" else []
+        self.half_units = [half_copy(u, i) for i, u in enumerate(self.units)] if weights == "float16" else []
         self._half_ptrs = ptrs(self.half_units) if self.half_units else None
         self._out = np.empty((n_sets, 3), np.float64)
         # addresses of the arrays the engine keeps, taken once (each .ctypes costs about a microsecond)
@@ -471,7 +397,7 @@ class NativeStreamingCascade:
         )
         if self.chooser is not None and rc == 0:
             self.chooser.record(threads, time.perf_counter() - start)
-        if rc != 0:
+        if rc == 1:
             raise MemoryError("the streaming kernel could not allocate its scratch memory")
         self.n_seen += 1
         return self._out.copy()

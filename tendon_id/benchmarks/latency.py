@@ -30,7 +30,8 @@ import torch
 from learners.cascade import Cascade, normalised_geometry, normalised_tensions
 from learners.correction import CorrectedCascade
 from learners.presets import preset as get_preset
-from learners.streaming_native import WEIGHT_FORMATS
+from learners.streaming_native import kernel_status
+from learners.streaming_pack import WEIGHT_FORMATS
 from learners.training import fit_feature_norm
 from tendon_id.datasets import load_recipe
 from tendon_id.geometry import sin_q
@@ -171,7 +172,7 @@ def trained_agreement(recipe: str, seed: int = 0) -> dict:
     batch = model.predict(traj)
     out = {}
     engines = {"default": {}, "torch": {"engine": "torch"}}
-    if model.streamer().engine_name == "native":
+    if kernel_status()[0]:
         engines["float16"] = {"weights": "float16"}
     truth = traj.joint_truth
     rmse = lambda est: float(np.sqrt(np.mean((est[:, 1:] - truth[:, 1:]) ** 2)))  # noqa: E731  (set 1 is measured)

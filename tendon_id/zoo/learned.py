@@ -13,8 +13,9 @@ from learners.cascade import Cascade, CascadeInputs, StreamingCascade
 from learners.loss import LossWeights
 from learners.presets import UnitConfig
 from learners.presets import preset as get_preset
-from learners.streaming_native import WEIGHT_FORMATS, KernelUnavailable, NativeStreamingCascade
+from learners.streaming_native import KernelUnavailable, NativeStreamingCascade
 from learners.streaming_native import disabled as native_disabled
+from learners.streaming_pack import WEIGHT_FORMATS
 from learners.training import Sequences, TrainingError, fit_feature_norm, train_two_stage
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
