@@ -1,4 +1,4 @@
-"""Issue 19's speed goals, before and after, in one run: calibration, posterior, identifiability, streaming.
+"""Issue 19's speed goals, before and after, in one run: calibration, posterior, identifiability, streaming, simulator.
 
 Usage: python benchmarks/bench_hardening.py --before REV [--json FILE] [--skip KIND ...]
 
@@ -19,6 +19,11 @@ tree's).  Measured, on the machine it runs on:
     The paper preset's native streaming engine (untrained weights: latency does not depend on
     them), N = 12, on 1 and 2 threads (and "auto", and float16 weights, where the tree has them),
     idle and beside a process that keeps one core busy.
+``simulator``
+    The load check of ``bench_simulator.py --load-check``, written out so that it runs in both
+    trees: 1 000 000 frames of N = 12 with every effect, 20 chunks of 50 000 on 2 joblib workers;
+    frames/s, each worker's peak memory, and each chunk's checksum (the sum of its terminal and
+    actuator tensions), which must agree before and after to rounding.
 """
 
 from __future__ import annotations
@@ -30,6 +35,8 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -107,11 +114,40 @@ for load in ("idle", "one core busy"):
 print(json.dumps({"default_threads": default.engine.threads, "engine": default.engine_name, "rows": rows}))
 """
 
+SIMULATOR = """
+import os, resource
+from joblib import Parallel, delayed
+from tendon_id.datasets import load_recipe
+from tendon_id.sim import EFFECT_NAMES, simulate
+
+
+def chunk(seed):
+    t0 = time.perf_counter()
+    rec = simulate(load_recipe("snake12-paper"), "planned-paths", effects=list(EFFECT_NAMES), frames=50000,
+                   seed=seed, progress=False).recording
+    return {"seconds": time.perf_counter() - t0, "pid": os.getpid(), "frames": rec.n_frames,
+            "checksum": float(np.sum(rec.terminal)) + float(np.sum(rec.actuator)),
+            "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+
+
+t0 = time.perf_counter()
+rows = list(Parallel(n_jobs=2)(delayed(chunk)(k) for k in range(20)))
+wall = time.perf_counter() - t0
+frames = sum(r["frames"] for r in rows)
+peaks = {}
+for r in rows:
+    peaks.setdefault(str(r["pid"]), []).append(r["peak_rss_mib"])
+print(json.dumps({"frames": frames, "wall_s": wall, "frames_per_s": frames / wall,
+    "chunk_s_median": float(np.median([r["seconds"] for r in rows])),
+    "peak_rss_mib": {p: [v[0], v[-1]] for p, v in peaks.items()}, "checksums": [r["checksum"] for r in rows]}))
+"""
+
 MEASUREMENTS = {
     "calibration": CALIBRATION,
     "posterior": POSTERIOR,
     "identifiability": IDENTIFIABILITY,
     "streaming": STREAMING,
+    "simulator": SIMULATOR,
 }
 
 
@@ -141,6 +177,9 @@ def main() -> None:
                 if name in args.skip:
                     continue
                 results[name] = {"before": run_in(before, code), "after": run_in(ROOT, code)}
+                if name == "simulator":
+                    b, a = (np.array(results[name][k]["checksums"]) for k in ("before", "after"))
+                    results[name]["checksum_max_rel_diff"] = float(np.max(np.abs(a / b - 1.0)))
                 print(name, json.dumps(results[name]), flush=True)
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(before)], cwd=ROOT, check=False)

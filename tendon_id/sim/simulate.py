@@ -195,8 +195,8 @@ def simulate(
     session_act = np.concatenate(pieces_act)
     logged = np.concatenate(logged)
     reset = np.concatenate(reset_parts)
-    tx = transmit(session_theta, session_act, reset, geometry, recipe.friction, eff, dt)
-    chain, sigma, wrap = tx.chain[logged], tx.sigma[logged], tx.wrap[logged]
+    tx = transmit(session_theta, session_act, reset, geometry, recipe.friction, eff, dt, keep=logged)
+    chain, sigma, wrap = tx.chain, tx.sigma, tx.wrap
     theta_true, actuator_true = session_theta[logged], session_act[logged]
     session_clock = (np.arange(len(logged)) * dt)[logged]
 

@@ -45,10 +45,12 @@ from tendon_id.geometry import (
     turn_into_upper,
     turn_out_of_lower,
 )
+from tendon_id.sim import transmission_kernel as kernel
 from tendon_id.sim.effects import Effects
 
 __all__ = [
     "FrictionLaw",
+    "COMPILED_EFFECTS",
     "GuideWraps",
     "TransmissionResult",
     "guide_exponent",
@@ -57,6 +59,19 @@ __all__ = [
     "transmit",
     "wear_factors",
 ]
+
+#: Effects the compiled pass runs (:mod:`tendon_id.sim.transmission_kernel`); ``stick_slip`` only
+#: with its sharp edge.  Anything else runs on the composed route, so a new effect needs only its block.
+COMPILED_EFFECTS = (
+    "contact",
+    "stick_slip",
+    "viscoelastic",
+    "velocity_friction",
+    "bending_stiffness",
+    "guide_wear",
+    "per_tendon_wrap",
+    "sensor_bias",  # a load cell's, applied after the transmission
+)
 
 
 @dataclass(frozen=True)
@@ -114,14 +129,15 @@ class TransmissionResult:
         ``stick_slip`` every passing tendon is in forward slip.
     wrap : ndarray, shape (T, N-1)
         Backbone wrap per guide [rad].
-    phi : ndarray, shape (T, N-1, N, 3)
-        Capstan exponent actually applied (NaN off the path).
+    phi : ndarray, shape (T, N-1, N, 3), or None
+        Capstan exponent actually applied (NaN off the path); None unless
+        :func:`transmit` was asked for it (``with_phi=True``).
     """
 
     chain: NDArray[np.float64]
     sigma: NDArray[np.int8]
     wrap: NDArray[np.float64]
-    phi: NDArray[np.float64]
+    phi: NDArray[np.float64] | None = None
 
     @property
     def joint_side(self) -> NDArray[np.float64]:
@@ -195,12 +211,15 @@ def guide_mu(friction: FrictionLaw, alpha: NDArray, where: str) -> NDArray:
     """``mu_i(alpha)`` (paper Eq. (4)); refuses a law that turns negative at these wraps (``where``: which guides)."""
     mu = friction.mu(alpha)
     if np.any(mu < 0):
-        bad = float(np.max(np.broadcast_to(alpha, mu.shape)[mu < 0]))
-        raise ConfigError(
-            f"the friction law is negative at wraps this motion reaches ({bad:.2f} rad at {where}); "
-            "use a law with mu >= 0 there"
-        )
+        raise _negative_law(float(np.max(np.broadcast_to(alpha, mu.shape)[mu < 0])), where)
     return mu
+
+
+def _negative_law(alpha: float, where: str) -> ConfigError:
+    return ConfigError(
+        f"the friction law is negative at wraps this motion reaches ({alpha:.2f} rad at {where}); "
+        "use a law with mu >= 0 there"
+    )
 
 
 def guide_exponent(mu: NDArray, alpha: NDArray, geometry: RobotGeometry, effects: Effects, wear=None) -> NDArray:
@@ -220,6 +239,10 @@ def transmit(
     friction: FrictionLaw,
     effects: Effects,
     dt: float,
+    *,
+    keep: NDArray | None = None,
+    with_phi: bool = False,
+    compiled: bool | None = None,
 ) -> TransmissionResult:
     """Run the truth transmission over a block of frames.
 
@@ -235,7 +258,71 @@ def transmit(
         Robot, friction law and the unmodelled effects that are on.
     dt : float
         Sample period [s].
+    keep : ndarray of bool, shape (T,), optional
+        Frames whose state to return (default: all); the others still run, since the
+        hysteresis and lag carry over them.
+    with_phi : bool
+        Also return the capstan exponents (as large as ``chain``; off by default).
+    compiled : bool, optional
+        Run the compiled pass (:mod:`tendon_id.sim.transmission_kernel`, the same physics to
+        rounding) or the composed blocks of :mod:`friction_models` (the reference).  Default:
+        compiled where numba is installed and every effect that is on is in :data:`COMPILED_EFFECTS`.
+
+    Returns
+    -------
+    TransmissionResult
+        Of the kept frames.
     """
+    can = kernel.COMPILED and _compilable(effects)
+    if compiled and not can:
+        raise ConfigError(
+            "the compiled transmission needs numba and runs the sharp edge of stick_slip only; "
+            f"effects on: {', '.join(effects.enabled) or 'none'}"
+        )
+    if can if compiled is None else compiled:
+        return _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, keep, with_phi)
+    res = _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt)
+    kept = slice(None) if keep is None else np.asarray(keep, dtype=bool)
+    phi = res.phi[kept] if with_phi else None
+    return TransmissionResult(chain=res.chain[kept], sigma=res.sigma[kept], wrap=res.wrap[kept], phi=phi)
+
+
+def _compilable(effects: Effects) -> bool:
+    if any(e not in COMPILED_EFFECTS for e in effects.enabled):
+        return False
+    return "stick_slip" not in effects or effects.get("stick_slip").smooth_width == 0
+
+
+def _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, keep, with_phi) -> TransmissionResult:
+    """:func:`transmit` by the compiled pass, its error raised as the blocks raise it."""
+    exact = "per_tendon_wrap" in effects and effects.get("per_tendon_wrap").model == "exact"
+    out = kernel.transmit_compiled(
+        theta,
+        actuator,
+        reset,
+        geometry,
+        friction,
+        effects,
+        dt,
+        keep=keep,
+        with_phi=with_phi,
+        wraps=None if exact else GuideWraps(theta, geometry, effects).every(),
+        wear=wear_factors(geometry, effects),
+    )
+    bad = np.flatnonzero(out["bad_alpha"] > -np.inf)
+    if bad.size:
+        raise _negative_law(out["bad_alpha"][bad[0]], f"guide {bad[0] + 1}")
+    kept = slice(None) if keep is None else np.asarray(keep, dtype=bool)
+    return TransmissionResult(
+        chain=out["chain"],
+        sigma=out["sigma"],
+        wrap=backbone_wrap(theta, geometry.alpha_0)[kept],
+        phi=out["phi"] if with_phi else None,
+    )
+
+
+def _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt) -> TransmissionResult:
+    """:func:`transmit` by the blocks of :mod:`friction_models`, one array operation per block and guide."""
     n = geometry.n_modules
     n_frames = theta.shape[0]
     wraps = GuideWraps(theta, geometry, effects)
