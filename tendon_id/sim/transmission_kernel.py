@@ -50,10 +50,10 @@ WRAP_GIVEN, WRAP_EXACT = 0, 1
 SLIP_NONE, SLIP_TENSION, SLIP_MOTION = 0, 1, 2
 
 
-def _turns(R, m, ux, uy, h):  # pragma: no cover - compiled
-    # Hole turns at joint m for a hole at (ux, uy): into the upper link and out of the lower link
-    # (tendon_id.geometry.turn_into_upper / turn_out_of_lower, written out the same way), each
-    # as (radial, axial) components of the segment.
+def _turn_into(R, m, ux, uy, h):  # pragma: no cover - compiled
+    # The turn at joint m into the upper link of a hole at (ux, uy), as the (radial, axial) components
+    # of the segment (tendon_id.geometry.turn_into_upper, written out the same way; _turn_out likewise
+    # turn_out_of_lower).
     vx = ux - (R[m, 0] * ux + R[m, 3] * uy - R[m, 6] * h)
     vy = uy - (R[m, 1] * ux + R[m, 4] * uy - R[m, 7] * h)
     vz = h - (R[m, 2] * ux + R[m, 5] * uy - R[m, 8] * h)
@@ -82,8 +82,8 @@ def _pass(
     cos_a0, sin_a0 = math.cos(alpha_0), math.sin(alpha_0)
     with_phi = phi.shape[0] > 0
     for t in range(n_frames):
-        k = row[t]
-        if wrap_mode == 1:  # joint_rotation: R = R_y(theta_x) R_x(-theta_y), row-major
+        k, first = row[t], restart[t]
+        if wrap_mode == WRAP_EXACT:  # joint_rotation: R = R_y(theta_x) R_x(-theta_y), row-major
             for m in range(n):
                 ca, sa = math.cos(theta[t, m, 0]), math.sin(theta[t, m, 0])
                 cb, sb = math.cos(theta[t, m, 1]), math.sin(theta[t, m, 1])
@@ -106,8 +106,8 @@ def _pass(
         for g in range(n - 1):
             for j in range(g + 1, n):
                 for i in range(3):
-                    if wrap_mode == 1:
-                        r1, z1 = _turns(R, g, ux[j, i], uy[j, i], h)
+                    if wrap_mode == WRAP_EXACT:
+                        r1, z1 = _turn_into(R, g, ux[j, i], uy[j, i], h)
                         r2, z2 = _turn_out(R, g + 1, ux[j, i], uy[j, i], h)
                         im = r1 * z2 + r2 * z1  # (z1 + i r1)(z2 + i r2): the argument adds up
                         re = z1 * z2 - r1 * r2
@@ -127,7 +127,7 @@ def _pass(
                     if mu < 0.0 and alpha > bad_alpha[g]:
                         bad_alpha[g] = alpha
                     v = 0.0
-                    if vf or slip == 2:  # path rate beyond the guide (tendon_id.geometry.path_rate_at)
+                    if vf or slip == SLIP_MOTION:  # path rate beyond the guide (tendon_id.geometry.path_rate_at)
                         b0 = cum_rate[t, j, 0] - cum_rate[t, g, 0]
                         b1 = cum_rate[t, j, 1] - cum_rate[t, g, 1]
                         v = -hole_r * (b0 * cos_psi[j, i] + b1 * sin_psi[j, i])
@@ -143,13 +143,12 @@ def _pass(
                     if bend > 0.0:  # friction_models.edges_with_loss, in tensions
                         loss = bend * alpha
                         lo, hi = max(lo - loss, floor), hi + loss
-                    first = restart[t]
-                    if slip == 0:
+                    if slip == SLIP_NONE:
                         y = lo
                         sg = 1
                     else:
                         lo_e, hi_e = lo, hi
-                        if slip == 2:  # a sliding tendon sits on the edge of its direction
+                        if slip == SLIP_MOTION:  # a sliding tendon sits on the edge of its direction
                             if v > slide_threshold:
                                 lo_e = hi
                             if v < -slide_threshold:
@@ -170,7 +169,7 @@ def _pass(
 
 
 if COMPILED:
-    _turns = numba.njit(cache=True, inline="always")(_turns)
+    _turn_into = numba.njit(cache=True, inline="always")(_turn_into)
     _turn_out = numba.njit(cache=True, inline="always")(_turn_out)
     _pass = numba.njit(cache=True, nogil=True)(_pass)
 
