@@ -108,10 +108,15 @@ def held_pose(rng: np.random.Generator, n_modules: int, n_held: int, max_deg: fl
     raise ConfigError("held_pose_deg is too large: the chain would fold onto itself")
 
 
-def _random_bend(rng: np.random.Generator, max_rad: float) -> NDArray:
-    r = max_rad * np.sqrt(rng.uniform())
-    a = rng.uniform(0, 2 * np.pi)
-    return np.array([r * np.cos(a), r * np.sin(a)])
+def _random_bends(rng: np.random.Generator, max_rad: float, n: int) -> NDArray:
+    """``n`` bends uniform on the disk of radius ``max_rad`` [rad], shape (n, 2).
+
+    One draw of (n, 2) uniforms: the same numbers, in the same order, as a radius and an angle
+    drawn per bend, so the data of a seed do not depend on which way they are drawn.
+    """
+    u = rng.uniform(size=(n, 2))
+    r, a = max_rad * np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
+    return np.stack([r * np.cos(a), r * np.sin(a)], axis=1)
 
 
 @dataclass(frozen=True)
@@ -147,7 +152,7 @@ def _scan_last_joint(rng, ctx: MotionContext) -> NDArray:
     path = PathBuilder(ctx.held, ctx.v_max, ctx.dt)
     while path.frames < s.trajectory_frames:
         target = path.last
-        target[-1] = _random_bend(rng, s.range_deg * DEG)
+        target[-1] = _random_bends(rng, s.range_deg * DEG, 1)[0]
         path.move_to(target)
         if rng.uniform() < 0.3:
             path.hold(rng.uniform(*s.hold_s) / 3)
@@ -196,7 +201,7 @@ def planned_paths(rng, ctx: MotionContext) -> NDArray:
     path = PathBuilder(np.zeros((ctx.n_modules, 2)), ctx.v_max, ctx.dt)
     while path.frames < s.trajectory_frames:
         for _ in range(100):
-            target = np.stack([_random_bend(rng, s.range_deg * DEG) for _ in range(ctx.n_modules)])
+            target = _random_bends(rng, s.range_deg * DEG, ctx.n_modules)
             if _total_turn_ok(target):
                 break
         path.move_to(target)
