@@ -20,8 +20,8 @@ tree's).  Measured, on the machine it runs on:
     them), N = 12, on 1 and 2 threads (and "auto", and float16 weights, where the tree has them),
     idle and beside a process that keeps one core busy.
 ``simulator``
-    The load check of ``bench_simulator.py --load-check``, written out so that it runs in both
-    trees: 1 000 000 frames of N = 12 with every effect, 20 chunks of 50 000 on 2 joblib workers;
+    This tree's ``bench_simulator.py --load-check`` with either tree's ``tendon_id``:
+    1 000 000 frames of N = 12 with every effect, 20 chunks of 50 000 on 2 joblib workers;
     frames/s, each worker's peak memory, and each chunk's checksum (the sum of its terminal and
     actuator tensions), which must agree before and after to rounding.
 """
@@ -114,32 +114,19 @@ for load in ("idle", "one core busy"):
 print(json.dumps({"default_threads": default.engine.threads, "engine": default.engine_name, "rows": rows}))
 """
 
-SIMULATOR = """
-import os, resource
-from joblib import Parallel, delayed
-from tendon_id.datasets import load_recipe
-from tendon_id.sim import EFFECT_NAMES, simulate
-
-
-def chunk(seed):
-    t0 = time.perf_counter()
-    rec = simulate(load_recipe("snake12-paper"), "planned-paths", effects=list(EFFECT_NAMES), frames=50000,
-                   seed=seed, progress=False).recording
-    return {"seconds": time.perf_counter() - t0, "pid": os.getpid(), "frames": rec.n_frames,
-            "checksum": float(np.sum(rec.terminal)) + float(np.sum(rec.actuator)),
-            "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
-
-
-t0 = time.perf_counter()
-rows = list(Parallel(n_jobs=2)(delayed(chunk)(k) for k in range(20)))
-wall = time.perf_counter() - t0
-frames = sum(r["frames"] for r in rows)
-peaks = {}
-for r in rows:
-    peaks.setdefault(str(r["pid"]), []).append(r["peak_rss_mib"])
-print(json.dumps({"frames": frames, "wall_s": wall, "frames_per_s": frames / wall,
-    "chunk_s_median": float(np.median([r["seconds"] for r in rows])),
-    "peak_rss_mib": {p: [v[0], v[-1]] for p, v in peaks.items()}, "checksums": [r["checksum"] for r in rows]}))
+# This tree's load check, run in either tree (the script imports that tree's tendon_id): its
+# chunks are seeds 0..19, so both runs simulate the same sessions.
+SIMULATOR = f"""
+import subprocess, sys, tempfile
+with tempfile.TemporaryDirectory() as d:
+    subprocess.run([sys.executable, {str(ROOT / "benchmarks" / "bench_simulator.py")!r}, "--load-check",
+                    "--json", d + "/out.json"], check=True, stdout=subprocess.DEVNULL)
+    with open(d + "/out.json") as f:
+        out = json.load(f)
+print(json.dumps({{"frames": out["total_frames"], "wall_s": out["wall_s"], "frames_per_s": out["frames_per_s"],
+    "chunk_s_median": out["chunk_s_median"],
+    "peak_rss_mib": {{p: [v["first"], v["last"]] for p, v in out["peak_rss_mib_per_worker"].items()}},
+    "checksums": [c["checksum"] for c in out["chunks"]]}}))
 """
 
 MEASUREMENTS = {

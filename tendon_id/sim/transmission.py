@@ -296,6 +296,7 @@ def _compilable(effects: Effects) -> bool:
 def _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, keep, with_phi) -> TransmissionResult:
     """:func:`transmit` by the compiled pass, its error raised as the blocks raise it."""
     exact = "per_tendon_wrap" in effects and effects.get("per_tendon_wrap").model == "exact"
+    wraps = None if exact else GuideWraps(theta, geometry, effects)  # the pass turns the exact wraps itself
     out = kernel.transmit_compiled(
         theta,
         actuator,
@@ -306,7 +307,7 @@ def _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, 
         dt,
         keep=keep,
         with_phi=with_phi,
-        wraps=None if exact else GuideWraps(theta, geometry, effects).every(),
+        wraps=None if wraps is None else wraps.every(),
         wear=wear_factors(geometry, effects),
     )
     bad = np.flatnonzero(out["bad_alpha"] > -np.inf)
@@ -316,7 +317,7 @@ def _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, 
     return TransmissionResult(
         chain=out["chain"],
         sigma=out["sigma"],
-        wrap=backbone_wrap(theta, geometry.alpha_0)[kept],
+        wrap=(backbone_wrap(theta, geometry.alpha_0) if wraps is None else wraps.wrap)[kept],
         phi=out["phi"] if with_phi else None,
     )
 

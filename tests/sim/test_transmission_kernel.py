@@ -24,10 +24,8 @@ def session():
 
 
 def both(theta, actuator, reset, geometry, friction, effects, dt=0.1):
-    kw = dict(with_phi=True)
-    a = transmit(theta, actuator, reset, geometry, friction, effects, dt, compiled=True, **kw)
-    b = transmit(theta, actuator, reset, geometry, friction, effects, dt, compiled=False, **kw)
-    return a, b
+    args = (theta, actuator, reset, geometry, friction, effects, dt)
+    return transmit(*args, compiled=True, with_phi=True), transmit(*args, compiled=False, with_phi=True)
 
 
 def assert_same_physics(a, b, max_sigma_share=2e-3):
