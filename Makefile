@@ -33,7 +33,7 @@ docs: $(STAMP)
 	$(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
 
 bench: $(STAMP)
-	$(BIN)/python benchmarks/bench_simulator.py
+	$(BIN)/python perf/bench_simulator.py
 
 clean:
 	rm -rf $(VENV) out docs/_build docs/auto_examples

@@ -8,6 +8,10 @@ Every ``import`` statement counts, at module level or inside a function. It chec
 * no cycle between modules;
 * layering: ``tendon_id -> learners -> friction_models``, never back;
 * no private name (``_x``) imported from another module;
+* the family seam (docs/guide/architecture.rst): the code written once for every transmission
+  family (:data:`GENERIC`) imports only itself and the foundation (:data:`FOUNDATION`), and the
+  foundation only itself, so neither can import a family's module; a family is reached through
+  ``tendon_id.family`` alone. The built-in families' entry modules must lie outside both;
 * ``--dot`` prints the graph in Graphviz format instead.
 """
 
@@ -20,6 +24,41 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]  # default: the checkout this script is in
 PACKAGES = ("tendon_id", "learners", "friction_models")
 LAYER = {"tendon_id": 2, "learners": 1, "friction_models": 0}
+
+#: The code written once for every transmission family (a name covers its submodules).
+GENERIC = (
+    "tendon_id.family",
+    "tendon_id.diagnosis",
+    "tendon_id.calibration.run",
+    "tendon_id.calibration.posterior",
+    "tendon_id.calibration.mcmc",
+    "tendon_id.calibration.optimize",
+    "tendon_id.zoo.estimator",
+    "tendon_id.zoo.registry",
+    "tendon_id.zoo.persistence",
+    "tendon_id.zoo.testing",
+    "tendon_id.data.frame",
+    "tendon_id.data.mapping",
+    "tendon_id.report.diagnosis",
+)
+#: What knows no family and every layer may use.
+FOUNDATION = (
+    "friction_models",
+    "tendon_id.errors",
+    "tendon_id.checks",
+    "tendon_id.atomic",
+    "tendon_id.progress",
+    "tendon_id.metrics",
+    "tendon_id.extras",
+    "tendon_id.data.columns",
+    "tendon_id.data.io",
+    "tendon_id.data.rules",
+    "tendon_id.data.select",
+    "tendon_id.data.units",
+    "tendon_id.report.html",
+)
+#: Where the built-in families are registered (their entry modules must be family modules).
+FAMILY_REGISTRY = "tendon_id/family/registry.py"
 
 
 def modules(root: Path) -> dict[str, Path]:
@@ -59,6 +98,42 @@ def edges(mods: dict[str, Path]) -> tuple[dict[str, set[str]], list[str]]:
                 if t in mods and t != name:
                     graph[name].add(t)
     return graph, private
+
+
+def within(module: str, names: tuple[str, ...]) -> bool:
+    """Whether ``module`` is one of ``names`` or inside one of them."""
+    return any(module == n or module.startswith(n + ".") for n in names)
+
+
+def family_entries(root: Path) -> list[str]:
+    """The modules named in the family registry's ``BUILTIN`` table (``"module:attribute"``)."""
+    path = root / FAMILY_REGISTRY
+    if not path.is_file():
+        return []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        target = getattr(node, "target", None) or (node.targets[0] if isinstance(node, ast.Assign) else None)
+        if isinstance(target, ast.Name) and target.id == "BUILTIN" and isinstance(node.value, ast.Dict):
+            return [v.value.partition(":")[0] for v in node.value.values if isinstance(v, ast.Constant)]
+    return []
+
+
+def seam_problems(graph: dict[str, set[str]], root: Path) -> list[str]:
+    """Generic code that reaches past the seam, and family entries that are not family modules."""
+    out = []
+    for a in sorted(graph):
+        if within(a, GENERIC):
+            allowed, what = GENERIC + FOUNDATION, "generic"
+        elif within(a, FOUNDATION):
+            allowed, what = FOUNDATION, "foundation"
+        else:
+            continue
+        for b in sorted(graph[a]):
+            if not within(b, allowed):
+                out.append(f"seam: {what} {a} imports {b}, which is neither generic nor foundation (a family's?)")
+    for entry in family_entries(root):
+        if within(entry, GENERIC + FOUNDATION):
+            out.append(f"seam: the family module {entry} is listed as generic or foundation")
+    return out
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -110,6 +185,7 @@ def main(argv: list[str]) -> int:
             if LAYER[b.split(".")[0]] > LAYER[a.split(".")[0]]:
                 problems.append(f"layering: {a} imports {b}")
     problems += private
+    problems += seam_problems(graph, Path(args[0]).resolve() if args else ROOT)
     n_edges = sum(len(v) for v in graph.values())
     for p in problems:
         print(p)

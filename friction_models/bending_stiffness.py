@@ -12,7 +12,7 @@ def bending_loss(alpha: ArrayLike, dT_b: float) -> NDArray[np.float64]:
     Bending a tendon of flexural rigidity ``EI`` round a guide costs work that
     does not scale with the tension, so to first order it removes a constant
     force per radian of wrap (the rope "bending resistance" of Feyrer, "Wire
-    Ropes", Springer 2007, §3.3; DESIGN §5).  Its log-ratio signature is
+    Ropes", Springer 2007, §3.3; :doc:`/guide/simulator`).  Its log-ratio signature is
     ``-dT_b alpha / T``, i.e. it scales like 1/T.
 
     Parameters

@@ -7,7 +7,7 @@ from numpy.typing import ArrayLike, NDArray
 
 
 def hard_contact_gate(alpha: ArrayLike, alpha_c: float) -> NDArray[np.float64]:
-    """Contact indicator ``beta = 1[alpha > alpha_c]`` (paper Eq. (6); DESIGN §4).
+    """Contact indicator ``beta = 1[alpha > alpha_c]`` (paper Eq. (6); :doc:`/guide/geometry`).
 
     A tendon that turns by less than the clearance angle ``alpha_c`` of the hole
     passes without touching its wall and loses no tension there.

@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 
 def guide_wear_factors(n_guides: int, worn: Mapping[int, float]) -> NDArray[np.float64]:
-    """Friction multiplier ``w_k`` per guide (DESIGN §5 ``guide_wear``).
+    """Friction multiplier ``w_k`` per guide (:doc:`/guide/simulator` ``guide_wear``).
 
     Wear roughens a guide's bore and raises its friction coefficient; here it
     multiplies the capstan exponent, ``phi_k = w_k mu(alpha) alpha``.  This breaks

@@ -1,4 +1,4 @@
-"""One capstan passage on a bench: a single tendon, or an antagonistic cable pair (DESIGN §14).
+"""One capstan passage on a bench: a single tendon, or an antagonistic cable pair (:doc:`/guide/data`).
 
 A tendon sliding over a curved surface loses tension along the direction it slides (the
 Euler–Eytelwein capstan law, the paper's Eq. (1)): ``T_out = T_in exp(-sigma phi)`` with the

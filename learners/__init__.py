@@ -1,4 +1,4 @@
-"""Torch modules and training loops of PG-CHTC (paper Section III-C/D, IV-B; DESIGN §9).
+"""Torch modules and training loops of PG-CHTC (paper Section III-C/D, IV-B; :doc:`/guide/pgchtc`).
 
 Imports flow one way: ``tendon_id -> learners -> friction_models``.  Everything here
 works on tensors and arrays handed in by the caller, never on recordings or files.

@@ -73,7 +73,8 @@ def mapping_path(name_or_path: str | os.PathLike) -> Path:
     if bundled.is_file():
         return bundled
     raise ConfigError(
-        f"--mapping {str(name_or_path)!r}: no such file, nor a bundled mapping ({', '.join(mapping_names()) or 'none'})"
+        f"{str(name_or_path)!r}: no such file, nor a bundled mapping ({', '.join(mapping_names()) or 'none'})",
+        param="mapping",
     )
 
 

@@ -41,4 +41,31 @@ class RecordingError(TendonIdError, ValueError):
 
 
 class ConfigError(TendonIdError, ValueError):
-    """A recipe, option or configuration value is invalid."""
+    """A recipe, option or configuration value is invalid.
+
+    Parameters
+    ----------
+    reason : str
+        What is wrong, in one line.
+    param : str, optional
+        The library parameter (or recipe key) whose value is wrong. The message starts with it
+        (``"frames: must be at least 2, got 1"``); the command line names its flag instead
+        (:meth:`message_for`).
+    """
+
+    def __init__(self, reason: str, *, param: str | None = None):
+        self.reason = reason
+        self.param = param
+        super().__init__(f"{param}: {reason}" if param else reason)
+
+    def message_for(self, flags: dict[str, str]) -> str:
+        """The message with the parameter replaced by its command-line flag where ``flags`` has one.
+
+        Parameters
+        ----------
+        flags : dict
+            Parameter name -> flag (``{"frames": "--frames"}``), those of the command that ran.
+        """
+        if self.param and self.param in flags:
+            return f"{flags[self.param]}: {self.reason}"
+        return str(self)

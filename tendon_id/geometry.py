@@ -1,4 +1,4 @@
-"""Robot geometry: tendon routing, wrap angles and the contact gate (DESIGN §4).
+"""Robot geometry: tendon routing, wrap angles and the contact gate (:doc:`/guide/geometry`).
 
 Conventions
 -----------
@@ -10,7 +10,7 @@ Conventions
 
 The paper's ``Geom(q_k)`` (Eq. (3)) is :func:`backbone_wrap`: one wrap per guide,
 shared by every tendon.  :func:`projected_wrap` is the per-tendon small-angle
-form of DESIGN §4, and :func:`exact_wrap` the forward kinematics of the hole
+form of :doc:`/guide/geometry`, and :func:`exact_wrap` the forward kinematics of the hole
 points, which the simulator's ``per_tendon_wrap`` effect uses.
 """
 
@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from friction_models import hard_contact_gate, smooth_contact_gate
+from tendon_id.checks import check_keys
 from tendon_id.errors import ConfigError
 
 __all__ = [
@@ -64,7 +65,7 @@ class RobotGeometry:
         Radius of the circle of tendon holes on each disk [m]. Default 0.012.
     alpha_0 : float
         Routing wrap present even when the robot is straight [rad]
-        (DESIGN §4). Default 0.05.
+        (:doc:`/guide/geometry`). Default 0.05.
     alpha_c : float
         Clearance angle of a hole: below it the tendon does not touch the
         wall [rad]. Default 0.08, above ``alpha_0``, so a nearly straight
@@ -113,9 +114,7 @@ class RobotGeometry:
         """Build from :meth:`to_dict` output; unknown keys are an error."""
         d = dict(d or {})
         known = {f.name for f in fields(cls)}
-        unknown = sorted(set(d) - known)
-        if unknown:
-            raise ConfigError(f"unknown robot setting(s) {unknown}; known: {sorted(known)}")
+        check_keys(d, known, what="robot setting", param="robot")
         return cls(**d)
 
 
@@ -151,7 +150,7 @@ def backbone_wrap(theta: ArrayLike, alpha_0: float) -> NDArray[np.float64]:
     """Backbone-level wrap per guide, the paper's ``alpha_k = Geom(q_k)`` (Eq. (3)).
 
     ``alpha_k = |theta_k| / 2 + |theta_{k+1}| / 2 + alpha_0``: at each joint it
-    crosses, the tendon turns by half the joint's bend (DESIGN §4).
+    crosses, the tendon turns by half the joint's bend (:doc:`/guide/geometry`).
 
     Parameters
     ----------
@@ -187,7 +186,7 @@ def sin_q(theta: ArrayLike) -> NDArray[np.float64]:
 
 
 def projected_wrap(theta: ArrayLike, psi: ArrayLike, alpha_0: float) -> NDArray[np.float64]:
-    """Per-tendon wrap from projected bends (DESIGN §4, small-angle form).
+    """Per-tendon wrap from projected bends (:doc:`/guide/geometry`, small-angle form).
 
     ``alpha_k = |b_k(psi)| / 2 + |b_{k+1}(psi)| / 2 + alpha_0``.
 
@@ -310,7 +309,7 @@ def exact_wrap(
 
 
 def contact_gate(alpha: ArrayLike, geometry: RobotGeometry, *, smooth: bool = False, width: float = 0.01) -> NDArray:
-    """Contact gate ``beta_k`` for the hole clearance of ``geometry`` (DESIGN §4).
+    """Contact gate ``beta_k`` for the hole clearance of ``geometry`` (:doc:`/guide/geometry`).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Metrics of the paper's tables (DESIGN §8): RMSE, R^2 and max error per tendon, averaged over tendons."""
+"""Metrics of the paper's tables (:doc:`/guide/zoo`): RMSE, R^2 and max error per tendon, averaged over tendons."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ def tendon_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float]:
     Returns
     -------
     dict
-        ``{"rmse", "r2", "max_error"}``, the metrics object ``M`` of DESIGN §10.
+        ``{"rmse", "r2", "max_error"}``, the metrics object ``M`` of :doc:`/cli`.
         R^2 is ``1 - SSE / SST`` per tendon (negative when worse than the mean), averaged over
         the tendons whose reference varies; it is NaN when none does (``SST = 0``: one frame,
         or a held load), since R^2 is then undefined.

@@ -1,4 +1,4 @@
-"""Tests of the Recording schema, its IO and its validation (design section 3)."""
+"""Tests of the Recording schema, its IO and its validation (docs/guide/data.rst)."""
 
 from __future__ import annotations
 
@@ -149,7 +149,7 @@ def test_sample_rate_inferred_from_time_when_meta_lacks_it():
 def test_no_truth_recording():
     rec = make_recording(truth=False)
     assert not rec.has_truth and rec.joint_truth is None
-    assert rec.summary()["truth"] == {"terminal": True, "intermediate": False, "intermediate_joints": []}
+    assert rec.describe()["truth"] == {"terminal": True, "intermediate": False, "intermediate_joints": []}
 
 
 def test_partial_truth_is_not_joint_truth():
@@ -157,7 +157,7 @@ def test_partial_truth_is_not_joint_truth():
     frame = rec.frame.drop(columns=["tension_joint_2_3"])
     r2 = Recording(frame, rec.meta)
     assert r2.joint_truth is None and not r2.has_truth
-    assert r2.summary()["truth"]["intermediate_joints"] == [1]
+    assert r2.describe()["truth"]["intermediate_joints"] == [1]
 
 
 def test_extra_columns_kept_and_ignored(tmp_path):
@@ -229,7 +229,7 @@ def test_write_overwrites_atomically(tmp_path):
 
 
 def test_csv_from_a_separate_program_loads(tmp_path):
-    """A CSV written with the csv module following DESIGN section 3, no sidecar."""
+    """A CSV written with the csv module following docs/guide/data.rst, no sidecar."""
     path = tmp_path / "bench.csv"
     rng = np.random.default_rng(5)
     header = (
@@ -593,7 +593,7 @@ def test_check_history_window():
 
 def test_summary():
     rec = make_recording()
-    s = rec.summary()
+    s = rec.describe()
     json.dumps(s)  # serialisable for `tendon-id info --json`
     assert s["n_modules"] == N and s["n_frames"] == 2 * FRAMES and s["n_trajectories"] == 2
     assert s["trajectories"] == {"a": FRAMES, "b": FRAMES}

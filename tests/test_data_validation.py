@@ -1,4 +1,4 @@
-"""One test per rule of tendon_id.data.validation (design section 3), calling the free functions."""
+"""One test per rule of tendon_id.data.validation (docs/guide/data.rst), calling the free functions."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from tendon_id.data import column_names
+from tendon_id.data import rules as r
 from tendon_id.data import validation as v
 from tendon_id.errors import ConfigError, RecordingError
 
@@ -40,7 +41,7 @@ def test_valid_frame_passes_every_rule():
 
 
 def test_check_not_empty():
-    raises(v.check_not_empty, frame().iloc[:0], text="empty")
+    raises(r.check_not_empty, frame().iloc[:0], text="empty")
 
 
 def test_check_numbering():
@@ -68,23 +69,23 @@ def test_check_numeric():
     f = frame()
     f["theta_1_y"] = f["theta_1_y"].astype(object)
     f.loc[5, "theta_1_y"] = "abc"
-    raises(v.check_numeric, f, ["t", "theta_1_y"], column="theta_1_y", row=5, text="non-numeric value 'abc'")
+    raises(r.check_numeric, f, ["t", "theta_1_y"], column="theta_1_y", row=5, text="non-numeric value 'abc'")
 
 
 def test_check_trajectory_ids():
-    ids = v.check_trajectory_ids(frame())
+    ids = r.check_trajectory_ids(frame())
     assert ids.dtype.kind == "U" and list(ids[:1]) == ["a"]
     f = frame()
     f.loc[3, "trajectory"] = None
-    raises(v.check_trajectory_ids, f, column="trajectory", row=3, text="missing trajectory id")
+    raises(r.check_trajectory_ids, f, column="trajectory", row=3, text="missing trajectory id")
     f.loc[3, "trajectory"] = ""
-    raises(v.check_trajectory_ids, f, column="trajectory", row=3, text="empty trajectory id")
+    raises(r.check_trajectory_ids, f, column="trajectory", row=3, text="empty trajectory id")
 
 
 def test_check_contiguous_trajectories():
-    v.check_contiguous_trajectories(np.array(["a", "a", "b"]))
+    r.check_contiguous_trajectories(np.array(["a", "a", "b"]))
     raises(
-        v.check_contiguous_trajectories,
+        r.check_contiguous_trajectories,
         np.array(["a", "b", "b", "a"]),
         column="trajectory",
         row=3,
@@ -94,13 +95,13 @@ def test_check_contiguous_trajectories():
 
 def test_check_finite():
     a = {"t": np.arange(4.0), "x": np.array([1.0, 2.0, np.inf, 1.0]), "y": np.array([1.0, np.nan, 1.0, 1.0])}
-    raises(v.check_finite, a, column="y", row=1, text="NaN value")
-    raises(v.check_finite, {"x": a["x"]}, column="x", row=2, text="infinite value (inf)")
+    raises(r.check_finite, a, column="y", row=1, text="NaN value")
+    raises(r.check_finite, {"x": a["x"]}, column="x", row=2, text="infinite value (inf)")
 
 
 def test_check_positive_tensions():
     a = {"tension_act_1_1": np.array([1.0, 0.0]), "tension_act_1_2": np.array([-2.0, 1.0])}
-    raises(v.check_positive_tensions, a, column="tension_act_1_2", row=0, text="non-positive tension -2 N")
+    raises(r.check_positive_tensions, a, column="tension_act_1_2", row=0, text="non-positive tension -2 N")
 
 
 def test_check_angles_in_rad():
@@ -116,9 +117,9 @@ def test_check_angles_in_rad():
 
 def test_check_time_increases():
     ids = np.array(["a", "a", "b", "b"])
-    v.check_time_increases(np.array([0.0, 0.1, 0.0, 0.1]), ids)  # time restarts per trajectory
+    r.check_time_increases(np.array([0.0, 0.1, 0.0, 0.1]), ids)  # time restarts per trajectory
     raises(
-        v.check_time_increases,
+        r.check_time_increases,
         np.array([0.0, 0.1, 0.0, 0.0]),
         ids,
         column="t",

@@ -48,3 +48,36 @@ def test_the_checker_finds_an_upward_import_and_a_private_name(tmp_path, capsys)
     out = capsys.readouterr().out
     assert "layering: friction_models.law imports learners.net" in out
     assert "imports private _helper from learners.net" in out
+
+
+def test_the_checker_finds_generic_code_that_imports_a_family_module(tmp_path, capsys):
+    root = _tree(
+        tmp_path,
+        {
+            "tendon_id/diagnosis.py": "from tendon_id.capstan import CapstanModel\n",
+            "tendon_id/capstan.py": "from tendon_id.errors import ConfigError\n",
+            "tendon_id/errors.py": "class ConfigError(Exception):\n    pass\n",
+        },
+    )
+    assert import_graph.main([str(root)]) == 1
+    out = capsys.readouterr().out
+    assert "seam: generic tendon_id.diagnosis imports tendon_id.capstan" in out
+    (root / "tendon_id/diagnosis.py").write_text("from tendon_id.errors import ConfigError\n")
+    assert import_graph.main([str(root)]) == 0  # the foundation is allowed
+
+
+def test_the_checker_finds_foundation_that_reaches_a_family_and_a_family_listed_as_generic(tmp_path, capsys):
+    root = _tree(
+        tmp_path,
+        {
+            "tendon_id/errors.py": "from tendon_id.capstan import X\n",
+            "tendon_id/capstan.py": "X = 1\n",
+        },
+    )
+    (root / "tendon_id/family").mkdir()
+    (root / "tendon_id/family/__init__.py").write_text("")
+    (root / "tendon_id/family/registry.py").write_text('BUILTIN = {"snake": "tendon_id.errors:SNAKE"}\n')
+    assert import_graph.main([str(root)]) == 1
+    out = capsys.readouterr().out
+    assert "seam: foundation tendon_id.errors imports tendon_id.capstan" in out
+    assert "seam: the family module tendon_id.errors is listed as generic or foundation" in out

@@ -1,4 +1,4 @@
-"""The latency benchmark's contract: DESIGN §10 shape, streaming equal to batch, naive timed on a full window."""
+"""The latency benchmark's contract: docs/cli.rst shape, streaming equal to batch, naive timed on a full window."""
 
 from tendon_id.benchmarks.latency import latency
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from passage_data import TRUE, tendon_passage
 
+from tendon_id.calibration.posterior import sample_posterior
 from tendon_id.cli import main
 from tendon_id.zoo.passage import PassageCapstan
 from tendon_id.zoo.passage.fitting import confounded_groups
-from tendon_id.zoo.passage.posterior import sample_passage_posterior
 
 
 @pytest.fixture(scope="module")
@@ -30,13 +30,13 @@ def test_nlopt_recovers_the_law_and_reports_its_stop(fitted):
 
 def test_the_posterior_covers_the_truth_and_sees_white_noise(fitted):
     recs, model = fitted
-    post = sample_passage_posterior(model, recs, max_steps=1200, target_ess=200, seed=3, progress=False)
-    summary = post.summary()
+    post = sample_posterior(model, recs, max_steps=1200, target_ess=200, seed=3, progress=False)
+    summary = post.statistics()
     for name in ("gain", "phi", "offset"):
         assert summary[name]["q2.5"] <= TRUE[name] <= summary[name]["q97.5"], name
     assert post.residual_tau < 3.0  # the residual is the added white noise
     assert np.exp(summary["log_sigma"]["mean"]) == pytest.approx(0.05, rel=0.1)
-    again = sample_passage_posterior(model, recs, max_steps=1200, target_ess=200, seed=3, progress=False)
+    again = sample_posterior(model, recs, max_steps=1200, target_ess=200, seed=3, progress=False)
     assert np.array_equal(post.chain, again.chain)  # the same seed, the same chain
 
 
@@ -44,9 +44,9 @@ def test_a_correlated_residual_widens_the_posterior(fitted):
     """A base without stick/slip leaves a slow model error: its effective frames are fewer than its frames."""
     recs, _ = fitted
     base = PassageCapstan(warmup_s=0.5).fit(recs)
-    post = sample_passage_posterior(base, recs, max_steps=400, target_ess=50, seed=0, progress=False)
+    post = sample_posterior(base, recs, max_steps=400, target_ess=50, seed=0, progress=False)
     assert post.residual_tau > 5.0
-    assert post.to_json()["residual_tau_frames"] == post.residual_tau
+    assert post.to_dict()["residual_tau_frames"] == post.residual_tau
 
 
 def test_confounded_groups_join_chains_of_strong_correlations():
@@ -77,7 +77,7 @@ def test_calibrate_a_passage_from_the_cli(fitted, tmp_path, capsys):
     "args, words",
     [
         (["--blocks", "stick_slip,nope"], "unknown passage effect 'nope'"),
-        (["--tying", "per-guide"], "nothing to tie"),
+        (["--tying", "per-guide"], "--tying: no setting of model 'passage-capstan'"),
     ],
 )
 def test_calibrate_refuses_a_passage_misuse_with_exit_2(fitted, tmp_path, capsys, args, words):
@@ -86,3 +86,14 @@ def test_calibrate_refuses_a_passage_misuse_with_exit_2(fitted, tmp_path, capsys
     code = main(["calibrate", "--model", "passage-capstan", *args, "--data", str(path), "--out", str(tmp_path / "c")])
     err = capsys.readouterr().err
     assert code == 2 and words in err and "Traceback" not in err
+
+
+def test_run_calibration_of_a_passage_needs_no_report(fitted, tmp_path):
+    """The library call prints nothing unless asked (it once called a missing ``report`` on this path)."""
+    from tendon_id.calibration.run import run_calibration
+
+    recs, _ = fitted
+    written = run_calibration(recs, model="passage-capstan", settings={"blocks": ["stick_slip"]}, out=tmp_path)
+    doc = json.loads((tmp_path / "calibration.json").read_text())
+    assert written[0] == tmp_path / "calibration.json" and doc["blocks"] == ["stick_slip"]
+    assert doc["theta"]["gain"] == pytest.approx(TRUE["gain"], rel=5e-3)

@@ -11,9 +11,9 @@ from passage_data import tendon_passage
 from tendon_id import zoo
 from tendon_id.cli import main
 from tendon_id.diagnosis import DiagnosisSettings, diagnose
-from tendon_id.diagnosis.passage import file_splits, passage_strata
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.passage import PassageCapstan, PassageInputs
+from tendon_id.zoo.passage.diagnosis import file_splits, passage_strata
 
 SETTINGS = DiagnosisSettings(n_boot=200, block_s=2.0)
 

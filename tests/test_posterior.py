@@ -4,10 +4,10 @@ import emcee
 import numpy as np
 import pytest
 
+from tendon_id.calibration.posterior import sample_posterior
+from tendon_id.calibration.problem import LawProblem
 from tendon_id.datasets import load_recipe
 from tendon_id.identifiability.sampler import hit_and_run
-from tendon_id.posterior import sample_posterior
-from tendon_id.problem import LawProblem
 from tendon_id.sim import simulate
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.registry import make

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 
 from tendon_id import identifiability
-from tendon_id import problem as problem_module
-from tendon_id.calibration import calibrate
+from tendon_id.calibration import problem as problem_module
+from tendon_id.calibration.law import calibrate
+from tendon_id.calibration.law_layout import LawLayout
+from tendon_id.calibration.mcmc import ess_rhat
+from tendon_id.calibration.posterior import sample_posterior
+from tendon_id.calibration.problem import LawProblem, constrained_lstsq, delta_method_weight
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.identifiability import IdentifiabilityProblem
-from tendon_id.law_layout import LawLayout
-from tendon_id.mcmc import ess_rhat
-from tendon_id.posterior import sample_posterior
-from tendon_id.problem import LawProblem, constrained_lstsq, delta_method_weight
 from tendon_id.sim import simulate
 from tendon_id.zoo.base import NotFittedError
 from tendon_id.zoo.inputs import TransmissionInputs
@@ -175,5 +175,5 @@ def test_importing_the_diagnostics_silences_only_arvizs_refactor_notice(tmp_path
     (tmp_path / "cache").mkdir(exist_ok=True)
     for stamp in (tmp_path / "cache").rglob("daily_warning"):
         stamp.unlink()  # the failed import may have stamped today
-    ours = run("import tendon_id.mcmc")
+    ours = run("import tendon_id.calibration.mcmc")
     assert ours.returncode == 0, ours.stderr

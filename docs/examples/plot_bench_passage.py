@@ -153,6 +153,6 @@ if files:
 #
 # ``tendon-id calibrate --model passage-capstan --mapping mis-tool-characterization
 # --blocks stick_slip --posterior --data ... --out cal/`` samples the posterior of the law with
-# emcee (:mod:`tendon_id.zoo.passage.posterior`). At 1 kHz the residual of the fit stays
+# emcee (:mod:`tendon_id.zoo.passage.likelihood`). At 1 kHz the residual of the fit stays
 # correlated for about a second, so the likelihood counts the effective frames, not the frames:
 # the posterior is wide along the ridge above, which is what torque measurements alone can tell.

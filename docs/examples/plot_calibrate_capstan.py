@@ -30,8 +30,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+import tendon_id.calibration.posterior
 import tendon_id.datasets
-import tendon_id.posterior
 import tendon_id.sim
 from tendon_id import zoo
 
@@ -87,19 +87,19 @@ print(
 # The emcee posterior
 # -------------------
 #
-# :func:`tendon_id.posterior.sample_posterior` samples :math:`(A_i, B_i, \ln\sigma_i)` under the
+# :func:`tendon_id.calibration.posterior.sample_posterior` samples :math:`(A_i, B_i, \ln\sigma_i)` under the
 # same constraint :math:`B_i \ge |A_i|`. For a smooth model the log-probability costs
 # :math:`O(1)` per walker whatever the number of frames, and it is vectorised over walkers.
 # Sampling stops when the chain is longer than 50 autocorrelation times and every parameter
 # reaches the target effective sample size. The encoder-quantisation error is marginalised.
 
-post = tendon_id.posterior.sample_posterior(model, train, target_ess=400, seed=0)
+post = tendon_id.calibration.posterior.sample_posterior(model, train, target_ess=400, seed=0)
 print(
     f"{post.chain.shape[0]} steps x {post.chain.shape[1]} walkers kept, "
     f"max tau {post.tau.max():.0f} steps, acceptance {post.acceptance:.2f}, {post.seconds:.1f} s"
 )
 
-summary = pd.DataFrame(post.summary()).T
+summary = pd.DataFrame(post.statistics()).T
 print(summary.round(4).astype({"ess": int}))
 
 # %%
@@ -133,7 +133,7 @@ print(az.summary(idata, round_to=4))
 # -----------------------------------------------------
 #
 # Each posterior draw of the law is propagated through the cascade of guides:
-# :meth:`~tendon_id.posterior.PosteriorResult.predictive_bands` returns the 2.5, 50 and 97.5
+# :meth:`~tendon_id.calibration.law_posterior.PosteriorResult.predictive_bands` returns the 2.5, 50 and 97.5
 # percentiles of :math:`T[j, j, i]` for every joint (parameter uncertainty only; the load-cell
 # noise is not added). The simulator's intermediate truth, never seen in fitting, checks them.
 

@@ -35,7 +35,7 @@ print(rec)
 # Small sampler settings keep the docs fast; the command line uses larger defaults.
 
 result = analyse(rec, StudySettings(n_chains=32, n_steps=300, thin=10, band_frames=500))
-js = result.to_json()
+js = result.to_dict()
 print(f"model analysed: {js['model']}")
 print(
     f"tied:      rank {js['tied']['rank']}/{js['tied']['n_params']}, "

@@ -23,13 +23,12 @@ import numpy as np
 
 import tendon_id.datasets
 import tendon_id.sim
-from tendon_id.report.text import format_summary
 
 recipe = tendon_id.datasets.load_recipe("snake12-paper")
 result = tendon_id.sim.simulate(recipe, "posterior-3", frames=1500, seed=1)
 rec = result.recording
 print(rec)
-print(format_summary(rec.summary(), "posterior-3 (simulated)"))
+print(rec.summary("posterior-3 (simulated)"))
 
 # %%
 # The recipe switches on these unmodelled effects, with the paper's friction law as the truth:

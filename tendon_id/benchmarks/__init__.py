@@ -1,6 +1,6 @@
 """Benchmarks that reproduce the paper's tables on simulated data (``tendon-id benchmark NAME``).
 
-Each benchmark returns the JSON object of DESIGN §10:
+Each benchmark returns the JSON object of :doc:`/cli`:
 ``{"benchmark", "preset", "rows": [{"method", "protocol", "terminal": M, "joints": M | null}], "seconds"}``.
 """
 

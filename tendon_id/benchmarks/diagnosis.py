@@ -47,9 +47,8 @@ def benchmark_cases(quick: bool = False, seed: int = 0) -> list[Case]:
 def run_case(case: Case) -> dict:
     """Simulate, calibrate the base, diagnose, and refit the oracle structure of one case."""
     from tendon_id import zoo
-    from tendon_id.diagnosis import diagnose, oracle_block
-    from tendon_id.diagnosis.refit import refit
-    from tendon_id.diagnosis.runner import heldout_residual
+    from tendon_id.benchmarks.oracle import oracle_block
+    from tendon_id.diagnosis import DiagnosisSettings, diagnose
 
     t0 = time.perf_counter()
     train, test = case_data(case)
@@ -76,11 +75,12 @@ def run_case(case: Case) -> dict:
         truth = case_recipe(case).effects
         truth_blocks = tuple(oracle_block(e, truth) for e in LIBRARY if e in lib)  # in the simulator's order
         structure = base.with_blocks(*truth_blocks)
-        inputs = base.inputs(train)
-        fit = refit(structure, inputs, base.A_, base.B_, structure.block_params())
-        e = heldout_residual(fit.model, base.inputs(test))
+        family = base.family
+        start = (base.A_, base.B_, structure.block_params())
+        fit = family.refit(structure, base.inputs(train), start, DiagnosisSettings().max_nfev)
+        e = family.residual(fit.model, base.inputs(test))
         row["oracle_rmse"] = float(np.sqrt(np.nanmean(e**2)))
-        e0 = heldout_residual(base, base.inputs(test))
+        e0 = family.residual(base, base.inputs(test))
         structural = not any(b.param_names for b in truth_blocks)
         row["detectable"] = _detectable(result, e0, e, test[0].sample_rate_hz, structural)
     row["seconds"] = time.perf_counter() - t0

@@ -12,8 +12,8 @@ import time
 
 import numpy as np
 
+from tendon_id.calibration.posterior import sample_posterior
 from tendon_id.datasets import load_recipe
-from tendon_id.posterior import sample_posterior
 from tendon_id.progress import progress_bar
 from tendon_id.sim import simulate
 from tendon_id.zoo import make

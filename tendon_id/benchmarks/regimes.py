@@ -27,7 +27,7 @@ Each regime reports the terminal and intermediate-joint RMSE of ``capstan-nonsmo
 ratios to ``capstan-nonsmooth``, and the measured floor where one exists: with a fresh start
 the exact physics knows every state, so what is left is the load cells' noise, measured as
 the RMSE of the noisy terminal labels against the simulator's noise-free truth.  (With a
-continuous session the floor is the start state's, which ``benchmarks/start_state_floor.py``
+continuous session the floor is the start state's, which ``experiments/start_state_floor.py``
 measures for a whole recipe.)
 
 Regimes are independent jobs run through :class:`joblib.Parallel` (so on Dask or Ray unchanged),
@@ -247,7 +247,7 @@ def regimes(
     -------
     dict
         ``{"benchmark": "regimes", "preset", "recipe", "rows": [...], "cells": [...], "seconds"}``:
-        ``rows`` in the DESIGN §10 shape (one per method and regime, ``protocol`` "overall", plus
+        ``rows`` in the :doc:`/cli` shape (one per method and regime, ``protocol`` "overall", plus
         ``"regime"``, ``"ratio_terminal"`` and ``"ratio_joints"`` to capstan-nonsmooth), ``cells``
         :func:`regime_job`'s results.
     """

@@ -52,6 +52,7 @@ from joblib import delayed
 
 from tendon_id.benchmarks.jobs import job_runner
 from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
+from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
 from tendon_id.metrics import frame_weighted, tendon_metrics
 from tendon_id.progress import progress_bar
@@ -82,7 +83,7 @@ def grid(parameter: str, points: int = 5) -> list:
         Sorted, distinct values (ints for ``window``).
     """
     if parameter not in RANGES:
-        raise ConfigError(f"unknown sweep parameter {parameter!r}; known: {', '.join(RANGES)}")
+        check_choice("parameter", parameter, RANGES, what="sweep parameter")
     if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 2:
         raise ConfigError(f"points must be an integer of at least 2, got {points!r}")
     lo, hi = RANGES[parameter]
@@ -100,7 +101,7 @@ def grid(parameter: str, points: int = 5) -> list:
 
 def _settings(parameter: str, value) -> dict:
     if parameter not in OPERATING_POINT:
-        raise ConfigError(f"unknown sweep parameter {parameter!r}; known: {', '.join(OPERATING_POINT)}")
+        check_choice("parameter", parameter, OPERATING_POINT, what="sweep parameter")
     settings = dict(OPERATING_POINT)
     settings[parameter] = int(value) if parameter == "window" else float(value)
     return settings
@@ -191,7 +192,7 @@ def sweep(
     Returns
     -------
     dict
-        The benchmark JSON of DESIGN §10: ``{"benchmark": "sweep", "preset", "recipe", "rows":
+        The benchmark JSON of :doc:`/cli`: ``{"benchmark": "sweep", "preset", "recipe", "rows":
         [{"method": "pg-chtc", "protocol": "overall", "parameter", "value", "terminal": M,
         "validation_rmse", "joints": M | None, ...}], "ratios": {parameter: worst / best
         validation RMSE}, "test_ratios", "paper_ratios", "operating_point", "grids", "seconds"}``.

@@ -1,4 +1,4 @@
-"""Table III of the paper: the estimator in a 10 Hz closed loop, on the simulated robot (DESIGN §15).
+"""Table III of the paper: the estimator in a 10 Hz closed loop, on the simulated robot (:doc:`/guide/closed_loop`).
 
 Each estimator is fitted once on the paper's training pool (split ``seed``; never on a
 closed-loop run), then drives its own robot through the step-and-return tests of
@@ -18,6 +18,7 @@ import numpy as np
 from tendon_id.benchmarks.jobs import job_runner
 from tendon_id.benchmarks.splits import paper_split
 from tendon_id.benchmarks.tables import model_factory
+from tendon_id.checks import check_count
 from tendon_id.closed_loop import ORACLE, STEP_TESTS, in_loop, joint_torque, loop_metrics, run_step_test
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
@@ -150,8 +151,7 @@ def table3(
     for a rise or settling time that a seed never reached, and ``"traces"`` of seed ``seed``'s
     runs for the figure.
     """
-    if repeats < 1:
-        raise ConfigError("--repeats must be at least 1")
+    check_count("repeats", repeats)
     unknown = [e for e in estimators if e not in TABLE3_ESTIMATORS]
     if unknown:
         raise ConfigError(f"table3 compares {', '.join(TABLE3_ESTIMATORS)}; unknown: {', '.join(unknown)}")

@@ -2,14 +2,14 @@
 
 A case's truth is the base model's structure (the capstan law, plus contact and
 stick/slip for ``capstan-nonsmooth``) and one or two effects the base leaves out, each at
-a magnitude: half, default or double its documented default (DESIGN §5, the settings of
+a magnitude: half, default or double its documented default (:doc:`/guide/simulator`, the settings of
 :mod:`tendon_id.sim.effects`).  The smooth edge of the stick/slip band (``smooth_edge``, the
 option ``stick_slip.edge = "smooth"``) is withheld as an effect of its own: its truth is the
 nonsmooth capstan with a smooth edge, its base ``capstan-nonsmooth`` (a sharp edge), and its
 magnitude scales the edge's width.  Null cases withhold nothing.  Out-of-library cases withhold
 physics no candidate block offers: a transport delay of the terminal load cell, and a
 Stribeck dip of friction with speed.  The robot and the protocols (:data:`PROTOCOLS`) are ``snake12-paper``'s;
-the friction law is ``snake12-noise-only``'s, a feasible one (``B >= |A|``, DESIGN §7), since
+the friction law is ``snake12-noise-only``'s, a feasible one (``B >= |A|``, :doc:`/guide/calibration`), since
 the paper's own law lies outside the family every base is calibrated in, which would be a
 second, unlabelled gap in every case.  Sessions start fresh so the base's forward-slip start
 is right: only the withheld effect separates truth and base.

@@ -1,4 +1,6 @@
-"""The estimator in closed loop: a 10 Hz hybrid controller on a simulated robot (paper Section IV-C, DESIGN §15).
+"""The estimator in closed loop: a 10 Hz hybrid controller on a simulated robot (paper Section IV-C).
+
+See :doc:`/guide/closed_loop`.
 
 * :mod:`~tendon_id.closed_loop.plant`: joint dynamics driven through the truth transmission.
 * :mod:`~tendon_id.closed_loop.controller`: the hybrid tension and configuration controller.

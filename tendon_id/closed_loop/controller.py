@@ -45,7 +45,7 @@ __all__ = ["HybridController", "HybridGains", "tension_distribution"]
 class HybridGains:
     """Gains of :class:`HybridController`, fixed once for the oracle estimator.
 
-    The defaults were tuned with ``benchmarks/tune_closed_loop.py``: a grid over ``k_p``
+    The defaults were tuned with ``experiments/tune_closed_loop.py``: a grid over ``k_p``
     (16, 32, 64), ``k_i`` (2, 5, 10) and ``k_T`` (0.5, 0.7, 1) with the oracle (true joint-side
     tensions) in the loop, on both step regimes and seeds 100-102 (kept apart from the
     benchmark's), taking the gains that settle in every loop with the smallest mean settling

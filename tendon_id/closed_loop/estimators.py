@@ -85,7 +85,7 @@ class ModelInLoop(InLoopEstimator):
             t=np.arange(n_frames) * self.dt,
             angles=np.asarray(self.angles),
             actuator=act,
-            terminal=act[:, -1],  # a placeholder label: predict never reads labels (DESIGN §3)
+            terminal=act[:, -1],  # a placeholder label: predict never reads labels (docs/guide/data.rst)
             meta={"sample_rate_hz": 1.0 / self.dt},
         )
         return self.model.predict(rec)[-1]

@@ -1,12 +1,12 @@
 """The simulated robot of the closed loop: joint dynamics driven through the truth transmission.
 
-Per joint and bending axis, a linear second-order joint (DESIGN §15)::
+Per joint and bending axis, a linear second-order joint (:doc:`/guide/closed_loop`)::
 
     I theta'' + c theta' + K theta = tau,     tau_k = r sum_i T[k, k, i] (cos psi_ki, sin psi_ki)
 
 ``tau_k`` is the moment of set ``k``'s joint-side tensions about joint ``k``'s pivot through
 the hole radius ``r`` (the transpose of the tendon Jacobian, ``dl_i = -r (cos psi, sin psi) .
-dtheta``, DESIGN §4; a tendon pulls its joint towards its own azimuth).  The tendons of distal
+dtheta``, :doc:`/guide/geometry`; a tendon pulls its joint towards its own azimuth).  The tendons of distal
 sets pass joint ``k`` as well; the plant follows the paper's hybrid controller [3] and the
 issue's statement of it, where joint ``k`` is driven by its own set, which holds exactly when
 pass-through tendons run through the joint at equal tension.
@@ -53,7 +53,7 @@ class JointDynamics:
     stiffness : float, optional
         ``K`` [N m/rad], the backbone's elastic return.  Default (None): the recipe's
         actuation gain times the hole radius, ``K = g r``, so that the open-loop protocols'
-        antagonistic tension ``g b`` holds the bend they command (DESIGN §5 actuation).
+        antagonistic tension ``g b`` holds the bend they command (:doc:`/guide/simulator` actuation).
     damping_ratio : float
         ``zeta`` [-]; ``c = 2 zeta sqrt(K I)``. Default 1 (a joint with hysteretic
         friction in its bearings shows no ringing).

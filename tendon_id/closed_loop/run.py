@@ -30,7 +30,7 @@ class StepTest:
     The reference bends every stepped joint by ``amplitude_deg`` along one direction (drawn per
     seed), holds it for ``hold_s`` (loop 1), returns to straight and holds again (loop 2).
     Each move is a minimum-jerk profile whose peak speed is the recipe's quasi-static limit
-    ``v_max`` (DESIGN §5): duration ``1.875 A / v_max``.
+    ``v_max`` (:doc:`/guide/simulator`): duration ``1.875 A / v_max``.
 
     Parameters
     ----------

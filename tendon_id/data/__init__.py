@@ -1,4 +1,4 @@
-"""The data schema of tendon-id: a :class:`Recording` (design section 3).
+"""The data schema of tendon-id: a :class:`Recording` (:doc:`/guide/data`).
 
 A recording is one pandas DataFrame with one row per frame, plus metadata. Units are SI
 throughout: time in s, angles in rad, tensions in N.
@@ -29,7 +29,9 @@ The package is split by job: :mod:`~tendon_id.data.schema` (column names and met
 This package depends on numpy, pandas and (for Parquet) pyarrow only; never on torch.
 """
 
+from tendon_id.data.columns import DEFAULT_SAMPLE_RATE_HZ
+from tendon_id.data.io import META_KEY
 from tendon_id.data.recording import Recording
-from tendon_id.data.schema import DEFAULT_SAMPLE_RATE_HZ, META_KEY, SCHEMA_VERSION, column_names
+from tendon_id.data.schema import SCHEMA_VERSION, column_names
 
 __all__ = ["SCHEMA_VERSION", "META_KEY", "DEFAULT_SAMPLE_RATE_HZ", "column_names", "Recording"]

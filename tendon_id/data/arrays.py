@@ -1,4 +1,4 @@
-"""Conversion between named numpy arrays and the columns of a recording (design section 3).
+"""Conversion between named numpy arrays and the columns of a recording (:doc:`/guide/data`).
 
 :func:`frame_from_arrays` lays arrays such as ``angles`` (T, N, 2) out as schema columns;
 :func:`column_block` reads columns back as one float64 array of a given shape.
@@ -12,9 +12,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from tendon_id.data.schema import truth_columns
 from tendon_id.errors import RecordingError
 
-__all__ = ["frame_from_arrays", "column_block"]
+__all__ = ["column_block", "concat_frames", "frame_from_arrays"]
 
 
 def column_block(frame: pd.DataFrame, columns: list[str], shape: tuple[int, ...]) -> np.ndarray:
@@ -102,3 +103,42 @@ def frame_from_arrays(
     meta = dict(meta or {})
     meta.setdefault("n_modules", n)
     return pd.DataFrame(data), meta
+
+
+def concat_frames(recordings: Sequence[Any]) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The stacked frame and merged metadata of snake recordings already checked to stack.
+
+    :meth:`Recording.concat <tendon_id.data.Recording.concat>` checks them (same robot size and
+    sample rate, distinct trajectory ids) through its base class.
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        The rows of every input in order; intermediate truth columns only where every input
+        has them, extra columns missing from some inputs filled with NaN.
+    meta : dict
+        The metadata of the first input; ``protocol``, ``recipe``, ``seed`` and ``robot`` are
+        None where the inputs differ, ``effects`` is the union in order of first appearance.
+    """
+    recs = list(recordings)
+    first = recs[0]
+    n = first.n_modules
+    truth = [c for c in truth_columns(n) if all(c in r.frame.columns for r in recs)]
+    drop = set(truth_columns(n)) - set(truth)
+    frames = [r.frame.drop(columns=[c for c in r.frame.columns if c in drop]) for r in recs]
+    frame = pd.concat(frames, axis=0, ignore_index=True, sort=False)
+
+    meta = first.meta
+    others = [r.meta for r in recs[1:]]
+    for key in ("protocol", "recipe", "seed", "robot"):
+        if any(m[key] != meta[key] for m in others):
+            meta[key] = None
+    effects: list[str] = []
+    for m in [meta] + others:
+        effects += [e for e in m["effects"] if e not in effects]
+    meta["effects"] = effects
+    return frame, meta

@@ -1,4 +1,4 @@
-"""Reading and writing recordings: Parquet, or CSV plus a sidecar JSON (design section 3).
+"""Reading and writing recordings: Parquet, or CSV plus a sidecar JSON (:doc:`/guide/data`).
 
 Metadata is stored as JSON under the key ``b"tendon_id"`` of the Parquet key-value schema
 metadata, or in a sidecar ``.json`` file beside a CSV file (``x.csv`` -> ``x.json``). Files are
@@ -21,9 +21,11 @@ import numpy as np
 import pandas as pd
 
 from tendon_id.atomic import atomic_write
-from tendon_id.data.normalise import PANDAS_COW
-from tendon_id.data.schema import META_KEY
+from tendon_id.data.columns import PANDAS_COW
 from tendon_id.errors import RecordingError
+
+#: Key of the Parquet key-value schema metadata that holds the recording metadata (JSON).
+META_KEY = b"tendon_id"
 
 __all__ = [
     "SUFFIXES_PARQUET",

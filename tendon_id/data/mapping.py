@@ -1,4 +1,4 @@
-"""A user's own files, read through a mapping file (TOML) that names their columns and units (DESIGN §14).
+"""A user's own files, read through a mapping file (TOML) that names their columns and units (:doc:`/guide/data`).
 
 A complete mapping, for a bench that logs one tendon's two load cells in mN and a motor
 angle in degrees::
@@ -23,10 +23,13 @@ angle in degrees::
 
 A value in SI is ``sign * scale * raw`` converted from ``unit`` (``scale`` is 1 unless the
 column holds counts: ``unit = "N*m", scale = 3.9811e-5``, or ``unit = "turn / 8192"``).
-The names ``[columns]`` may hold are the data kind's: for a passage
-:data:`~tendon_id.data.passage.PASSAGE_COLUMNS` and ``position``, ``position_out``, ``wrap``;
-for a snake the columns of :func:`~tendon_id.data.column_names`, with ``[meta]`` for its
-metadata (``n_modules``, ``robot``).
+``kind`` names the transmission family whose recording the file holds (:mod:`tendon_id.family`;
+default ``"passage"``). The names ``[columns]`` may hold, the columns it must name, and the
+family's own keys are its recording class's (:meth:`~tendon_id.data.frame.FrameRecording.mapped_signal`,
+:meth:`~tendon_id.data.frame.FrameRecording.mapping_options`): for a passage
+:data:`~tendon_id.data.passage.PASSAGE_COLUMNS` and ``position``, ``position_out``, ``wrap``,
+with ``quantity`` and ``[geometry]``; for a snake the columns of
+:func:`~tendon_id.data.column_names`, with ``[meta]`` for its metadata (``n_modules``, ``robot``).
 """
 
 from __future__ import annotations
@@ -40,23 +43,23 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tendon_id.data import validation as rules
+from tendon_id.checks import check_keys
+from tendon_id.data import rules
 from tendon_id.data.io import first_line, read_frame
-from tendon_id.data.passage import OPTIONAL_COLUMNS, PASSAGE_COLUMNS, QUANTITIES, PassageRecording
-from tendon_id.data.recording import Recording
-from tendon_id.data.schema import TENSION_RE, THETA_RE
 from tendon_id.data.units import DIMENSIONS, si_factor
 from tendon_id.errors import ConfigError, RecordingError
+from tendon_id.family.registry import DEFAULT_MAPPED, family_names, family_of_meta, get_family
 
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-__all__ = ["ColumnMap", "DataMapping", "load_mapping", "read_mapped", "read_files", "trajectory_names"]
+__all__ = ["ColumnMap", "DataMapping", "load_mapping", "read_mapped", "read_files", "table", "trajectory_names"]
 
-KINDS = ("passage", "snake")
-_TOP = {"kind", "quantity", "file", "columns", "geometry", "meta"}
+#: Top-level keys every mapping may have; a family's recording class reads its own besides
+#: (:attr:`~tendon_id.data.frame.FrameRecording.mapping_keys`).
+_TOP = {"kind", "file", "columns"}
 _FILE = {"comment", "header", "delimiter", "trajectory"}
 _COLUMN = {"column", "unit", "scale", "sign"}
 
@@ -88,40 +91,35 @@ class ColumnMap:
 
 @dataclass(frozen=True)
 class DataMapping:
-    """A parsed mapping file (see the module docstring)."""
+    """A parsed mapping file (see the module docstring).
+
+    ``kind`` is the family's name; ``options`` its recording class's own settings
+    (:meth:`~tendon_id.data.frame.FrameRecording.mapping_options`: a passage's ``quantity`` and
+    ``wrap_angle``, a snake's ``meta``).
+    """
 
     source: str
     kind: str
-    quantity: str | None
     columns: tuple[ColumnMap, ...]
     comment: str | None = None
     header: bool = True
     delimiter: str = ","
     trajectory: str | int = "file"
-    wrap_angle: float | None = None
-    meta: dict = field(default_factory=dict)
+    options: dict = field(default_factory=dict)
+
+    @property
+    def recording(self) -> type:
+        """The recording class of the family the mapping describes."""
+        return get_family(self.kind).recording
 
 
-def _signal_kind(kind: str, quantity: str | None, name: str) -> str | None:
-    """The kind of signal our column ``name`` holds, or None when the data kind has no such column."""
-    if name == "t":
-        return "time"
-    if kind == "passage":
-        if name in ("input", "output"):
-            return quantity
-        return "angle" if name in OPTIONAL_COLUMNS else None
-    if THETA_RE.match(name):
-        return "angle"
-    return "tension" if TENSION_RE.match(name) else None
-
-
-def _table(doc: dict, key: str, allowed: set, where: str) -> dict:
+def table(doc: dict, key: str, allowed: set, where: str) -> dict:
+    """The table ``[key]`` of a mapping (empty if absent); ``allowed`` its keys (empty: any)."""
     t = doc.get(key, {})
     if not isinstance(t, dict):
         raise ConfigError(f"{where}: [{key}] must be a table")
-    unknown = sorted(set(t) - allowed) if allowed else []
-    if unknown:
-        raise ConfigError(f"{where}: unknown key {key}.{unknown[0]}; known: {', '.join(sorted(allowed))}")
+    if allowed:
+        check_keys(t, allowed, what=f"key of [{key}]", where=where)
     return t
 
 
@@ -141,30 +139,26 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         raise ConfigError(f"{src}: no such mapping file") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"{src}: not a readable TOML mapping ({first_line(exc)})") from None
-    unknown = sorted(set(doc) - _TOP)
-    if unknown:
-        raise ConfigError(f"{src}: unknown key {unknown[0]!r}; known: {', '.join(sorted(_TOP))}")
-    kind = doc.get("kind", "passage")
-    if kind not in KINDS:
-        raise ConfigError(f"{src}: kind = {kind!r}; expected {' or '.join(map(repr, KINDS))}")
-    quantity = doc.get("quantity", "tension") if kind == "passage" else None
-    if kind == "passage" and quantity not in QUANTITIES:
-        raise ConfigError(f"{src}: quantity = {quantity!r}; expected {' or '.join(map(repr, QUANTITIES))}")
-    f = _table(doc, "file", _FILE, src)
-    cols = _table(doc, "columns", set(), src)
+    kind = doc.get("kind", DEFAULT_MAPPED)
+    if kind not in family_names():
+        raise ConfigError(f"{src}: kind = {kind!r}; known: {', '.join(family_names())}")
+    recording = get_family(kind).recording
+    known = _TOP | set(recording.mapping_keys)
+    check_keys(doc, known, what="key", where=src)
+    options = recording.mapping_options(doc, src)
+    f = table(doc, "file", _FILE, src)
+    cols = table(doc, "columns", set(), src)
     columns = []
     for name, spec in cols.items():
         where = f"{src}: columns.{name}"
-        sk = _signal_kind(kind, quantity, name)
+        sk = recording.mapped_signal(name, options)
         if sk is None:
             raise ConfigError(f"{where}: a {kind} has no column {name!r}")
         if isinstance(spec, (str, int)) and not isinstance(spec, bool):
             spec = {"column": spec}
         if not isinstance(spec, dict):
             raise ConfigError(f"{where}: expected a column name or {{ column = ..., unit = ... }}")
-        bad = sorted(set(spec) - _COLUMN)
-        if bad:
-            raise ConfigError(f"{where}: unknown key {bad[0]!r}; known: {', '.join(sorted(_COLUMN))}")
+        check_keys(spec, _COLUMN, what="key", where=where)
         if "column" not in spec:
             raise ConfigError(f"{where}: no 'column' (the name or 1-based number of the file's column)")
         column = spec["column"]
@@ -179,32 +173,18 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         factor = sign * float(scale) * si_factor(unit, sk, where=where)
         columns.append(ColumnMap(name, column, str(unit), factor, sk))
     names = {c.name for c in columns}
-    required = PASSAGE_COLUMNS[1:] if kind == "passage" else ("t",)
-    missing = [n for n in required if n not in names]
+    missing = [n for n in recording.required_columns(options) if n not in names]
     if missing:
         raise ConfigError(f"{src}: [columns] does not name {', '.join(missing)}")
-    geometry = _table(doc, "geometry", {"wrap_angle"}, src)
-    wrap = geometry.get("wrap_angle", "infer")
-    if wrap == "infer":
-        wrap = None
-    elif isinstance(wrap, (int, float)) and not isinstance(wrap, bool):
-        wrap = float(wrap)
-    else:
-        wrap = si_factor(str(wrap), "angle", where=f"{src}: geometry.wrap_angle")
-    if wrap is not None and not wrap > 0:
-        raise ConfigError(f"{src}: geometry.wrap_angle must be positive or 'infer', got {wrap!r}")
-    traj = f.get("trajectory", "file")
     return DataMapping(
         source=src,
         kind=kind,
-        quantity=quantity,
         columns=tuple(columns),
         comment=f.get("comment"),
         header=bool(f.get("header", True)),
         delimiter=str(f.get("delimiter", ",")),
-        trajectory=traj,
-        wrap_angle=wrap,
-        meta=dict(_table(doc, "meta", set(), src)),
+        trajectory=f.get("trajectory", "file"),
+        options=options,
     )
 
 
@@ -258,8 +238,8 @@ def read_mapped(path: str | os.PathLike, mapping: DataMapping, *, trajectory: st
 
     Returns
     -------
-    PassageRecording or Recording
-        By the mapping's kind; metadata records the file and the mapping.
+    FrameRecording
+        The recording of the mapping's family; metadata records the file and the mapping.
 
     Raises
     ------
@@ -295,11 +275,8 @@ def read_mapped(path: str | os.PathLike, mapping: DataMapping, *, trajectory: st
         col = _locate(raw, mapping.trajectory, "trajectory", mapping, src)
         out["trajectory"] = raw[col].astype(str).to_numpy()
     frame = pd.DataFrame(out)
-    meta = {**mapping.meta, "source_files": [path.name], "mapping": Path(mapping.source).name}
-    if mapping.kind == "passage":
-        meta.update(kind="passage", quantity=mapping.quantity, wrap_angle=mapping.wrap_angle)
-        return PassageRecording(frame, meta, source=src)
-    return Recording(frame, meta, source=src)
+    meta = {"source_files": [path.name], "mapping": Path(mapping.source).name}
+    return mapping.recording.from_mapped(frame, meta, mapping.options, src)
 
 
 def trajectory_names(paths: list[Path]) -> list[str]:
@@ -311,11 +288,12 @@ def trajectory_names(paths: list[Path]) -> list[str]:
 
 
 def read_own(path: Path):
-    """A file in our own format: a :class:`PassageRecording` where its metadata says ``kind = "passage"``."""
+    """A file in our own format, as the recording of the family its metadata names.
+
+    The family is :func:`~tendon_id.family.registry.family_of_meta`'s.
+    """
     frame, meta = read_frame(path)
-    if (meta or {}).get("kind") == "passage":
-        return PassageRecording(frame, meta, source=str(path))
-    return Recording(frame, meta, source=str(path))
+    return family_of_meta(meta).recording(frame, meta, source=str(path))
 
 
 def read_files(paths, mapping: DataMapping | None = None) -> list:

@@ -1,4 +1,4 @@
-"""Bring user input into the canonical form of a recording (design section 3).
+"""Bring user input into the canonical form of a snake recording (:doc:`/guide/data`).
 
 :func:`normalise_meta` checks the types of the known metadata keys and fills defaults;
 :func:`normalise_frame` copies a DataFrame, puts the canonical columns first and converts
@@ -16,40 +16,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tendon_id.data.schema import DEFAULT_SAMPLE_RATE_HZ, SCHEMA_VERSION, column_names, infer_n_modules, module_index
+from tendon_id.data.columns import PANDAS_COW, is_int, is_real_dtype
+from tendon_id.data.schema import SCHEMA_VERSION, column_names, infer_n_modules, module_index
 from tendon_id.errors import RecordingError
 
-__all__ = [
-    "PANDAS_COW",
-    "is_int",
-    "is_real_dtype",
-    "float_column",
-    "normalise_meta",
-    "normalise_frame",
-    "infer_sample_rate",
-]
-
-#: True under pandas >= 3, where copy-on-write is always on (copies are lazy and safe).
-PANDAS_COW = int(pd.__version__.split(".")[0]) >= 3
-
-
-def is_int(x: Any) -> bool:
-    """True for a Python or numpy integer, False for bools (which are ints to Python)."""
-    return isinstance(x, (int, np.integer)) and not isinstance(x, (bool, np.bool_))
-
-
-def is_real_dtype(dtype: Any) -> bool:
-    """True for integer or floating dtypes (numpy or pandas nullable), False for bool/str/complex."""
-    kind = getattr(dtype, "kind", None)
-    return kind in ("i", "u", "f")
-
-
-def float_column(frame: pd.DataFrame, column: str) -> np.ndarray:
-    """A column as float64 (missing values as NaN); float64 columns are not copied."""
-    s = frame[column]
-    if isinstance(s.dtype, np.dtype) and s.dtype == np.float64:
-        return s.to_numpy()
-    return s.to_numpy(dtype=np.float64, na_value=np.nan)
+__all__ = ["normalise_frame", "normalise_meta"]
 
 
 def _numbers(v: Any) -> bool:
@@ -232,25 +203,3 @@ def normalise_frame(frame: pd.DataFrame, meta: Mapping[str, Any], source: str | 
     if updates:
         frame = frame.assign(**updates)
     return frame
-
-
-def infer_sample_rate(frame: pd.DataFrame) -> float:
-    """Sample rate [Hz] from the median positive time step within trajectories.
-
-    Falls back to :data:`~tendon_id.data.schema.DEFAULT_SAMPLE_RATE_HZ` when the frame has no
-    usable time steps (missing columns, one frame, non-numeric time).
-    """
-    f = frame
-    try:
-        if "t" not in f.columns or "trajectory" not in f.columns or len(f) < 2:
-            return DEFAULT_SAMPLE_RATE_HZ
-        t = float_column(f, "t")
-        tr = f["trajectory"].to_numpy()
-        d = np.diff(t)[tr[1:] == tr[:-1]]
-        d = d[np.isfinite(d) & (d > 0)]
-        if d.size == 0:
-            return DEFAULT_SAMPLE_RATE_HZ
-        # 6 significant digits: 9.9999999 Hz from float round-off reads as 10 Hz.
-        return float(f"{1.0 / float(np.median(d)):.6g}")
-    except (TypeError, ValueError):
-        return DEFAULT_SAMPLE_RATE_HZ

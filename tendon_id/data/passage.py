@@ -1,4 +1,4 @@
-"""The single-passage data kind: one tendon passage (or an antagonistic pair) on a bench (DESIGN §14).
+"""The single-passage data kind: one tendon passage (or an antagonistic pair) on a bench (:doc:`/guide/data`).
 
 A :class:`PassageRecording` is one DataFrame with one row per frame plus metadata, like a
 :class:`~tendon_id.data.Recording`, in SI units:
@@ -22,18 +22,17 @@ Metadata: ``kind = "passage"``, ``quantity`` (``"torque"`` or ``"tension"``), ``
 from __future__ import annotations
 
 import copy
-import os
-from collections.abc import Mapping, Sequence
-from pathlib import Path
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import numpy as np
 import pandas as pd
 
-from tendon_id.data import validation as rules
-from tendon_id.data.io import read_frame, write_frame
-from tendon_id.data.normalise import float_column, infer_sample_rate
-from tendon_id.errors import RecordingError
+from tendon_id.data import rules
+from tendon_id.data.columns import float_column, infer_sample_rate
+from tendon_id.data.frame import FrameRecording
+from tendon_id.errors import ConfigError, RecordingError
+from tendon_id.family.registry import family_named
 
 __all__ = ["PASSAGE_KIND", "QUANTITIES", "PASSAGE_COLUMNS", "OPTIONAL_COLUMNS", "PassageRecording"]
 
@@ -61,8 +60,8 @@ def _meta(meta: Mapping[str, Any] | None, source: str | None) -> dict[str, Any]:
     return out
 
 
-class PassageRecording:
-    """One single-passage recording (see the module docstring).
+class PassageRecording(FrameRecording):
+    """One single-passage recording (see the module docstring): the bench passage family's recording.
 
     Parameters
     ----------
@@ -80,7 +79,8 @@ class PassageRecording:
         Naming the file, the column and the 0-based row of the first offending value.
     """
 
-    __slots__ = ("_frame", "_meta", "_source")
+    __slots__ = ()
+    family = family_named("passage")
 
     def __init__(self, frame: pd.DataFrame, meta: Mapping[str, Any] | None = None, *, source: str | None = None):
         if not isinstance(frame, pd.DataFrame):
@@ -116,21 +116,6 @@ class PassageRecording:
 
     # ---- what a model reads ------------------------------------------------------------
     @property
-    def frame(self) -> pd.DataFrame:
-        """pandas.DataFrame : The data, one row per frame. Treat as read-only."""
-        return self._frame
-
-    @property
-    def meta(self) -> dict[str, Any]:
-        """dict : A copy of the metadata."""
-        return copy.deepcopy(self._meta)
-
-    @property
-    def source(self) -> str | None:
-        """str or None : The file this recording was read from."""
-        return self._source
-
-    @property
     def quantity(self) -> str:
         """str : ``"torque"`` [N m] (an antagonistic pair) or ``"tension"`` [N] (one tendon)."""
         return self._meta["quantity"]
@@ -141,39 +126,6 @@ class PassageRecording:
         return QUANTITIES[self.quantity]
 
     @property
-    def n_frames(self) -> int:
-        return len(self._frame)
-
-    def __len__(self) -> int:
-        return self.n_frames
-
-    @property
-    def sample_rate_hz(self) -> float:
-        return float(self._meta["sample_rate_hz"])
-
-    @property
-    def dt(self) -> float:
-        """float : Sample period [s]."""
-        return 1.0 / self.sample_rate_hz
-
-    @property
-    def time(self) -> np.ndarray:
-        return float_column(self._frame, "t").copy()
-
-    @property
-    def trajectory_ids(self) -> np.ndarray:
-        return self._frame["trajectory"].to_numpy().astype(str)
-
-    @property
-    def trajectories(self) -> list[str]:
-        return list(dict.fromkeys(self.trajectory_ids))
-
-    @property
-    def trajectory_starts(self) -> np.ndarray:
-        """ndarray of bool, shape (T,) : True on the first frame of each trajectory."""
-        return rules.trajectory_starts(self.trajectory_ids)
-
-    @property
     def input(self) -> np.ndarray:
         """ndarray, shape (T,) : Input-side tension [N] or torque [N m]."""
         return float_column(self._frame, "input").copy()
@@ -182,10 +134,6 @@ class PassageRecording:
     def output(self) -> np.ndarray:
         """ndarray, shape (T,) : Output-side tension [N] or torque [N m]."""
         return float_column(self._frame, "output").copy()
-
-    def signal(self, column: str) -> np.ndarray | None:
-        """An optional column (``position``, ``position_out``, ``wrap``) as float64, or None."""
-        return float_column(self._frame, column).copy() if column in self._frame.columns else None
 
     def wrap(self) -> np.ndarray | None:
         """ndarray, shape (T,) : The wrap angle of each frame [rad], or None where it is inferred."""
@@ -200,46 +148,14 @@ class PassageRecording:
 
     # ---- files and selections ----------------------------------------------------------
     @classmethod
-    def read(cls, path: str | os.PathLike) -> PassageRecording:
-        """Read a passage recording in our own format (Parquet, or CSV with its sidecar)."""
-        frame, meta = read_frame(Path(path))
-        return cls(frame, meta, source=str(path))
+    def _check_concat(cls, first: PassageRecording, other: PassageRecording) -> None:
+        if other.quantity != first.quantity:
+            raise RecordingError(
+                f"cannot concatenate a {first.quantity} passage and a {other.quantity} passage", file=other.source
+            )
 
-    def write(self, path: str | os.PathLike) -> Path:
-        """Write atomically to ``.parquet`` or ``.csv`` (+ ``.json`` sidecar). Returns the path."""
-        return write_frame(self._frame, self._meta, Path(path))
-
-    def select(self, trajectories: Sequence[str]) -> PassageRecording:
-        """The frames of ``trajectories`` (in this recording's order)."""
-        keep = np.isin(self.trajectory_ids, list(trajectories))
-        if not keep.any():
-            raise RecordingError(f"none of the trajectories {list(trajectories)} is in the data", file=self._source)
-        return PassageRecording(self._frame[keep], self._meta, source=self._source)
-
-    @staticmethod
-    def concat(recordings: Sequence[PassageRecording]) -> PassageRecording:
-        """One recording of several, which must share the quantity; trajectory ids must differ."""
-        recs = list(recordings)
-        if not recs:
-            raise RecordingError("cannot concatenate zero recordings")
-        first = recs[0]
-        seen: set[str] = set()
-        for r in recs:
-            if r.quantity != first.quantity:
-                raise RecordingError(
-                    f"cannot concatenate a {first.quantity} passage and a {r.quantity} passage", file=r.source
-                )
-            dup = seen & set(r.trajectories)
-            if dup:
-                raise RecordingError(f"trajectory id {sorted(dup)[0]!r} appears twice; rename one", file=r.source)
-            seen |= set(r.trajectories)
-        frame = pd.concat([r.frame for r in recs], ignore_index=True, sort=False)
-        meta = first.meta
-        meta["sample_rate_hz"] = None if len({r.sample_rate_hz for r in recs}) > 1 else first.sample_rate_hz
-        return PassageRecording(frame, meta, source=first.source if len(recs) == 1 else None)
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-able summary for ``tendon-id info``: frames, trajectories, ranges in SI units."""
+    def describe(self) -> dict[str, Any]:
+        """JSON-able description for ``tendon-id info --json``: frames, trajectories, ranges in SI units."""
         starts = np.flatnonzero(self.trajectory_starts)
         lengths = np.diff(np.append(starts, self.n_frames))
         ranges = {
@@ -258,6 +174,63 @@ class PassageRecording:
             "wrap_angle": self._meta["wrap_angle"],
             "ranges": ranges,
         }
+
+    def summary(self, name: str | None = None) -> str:
+        """A few aligned lines for ``tendon-id info``; ``name`` is the file shown (default: the source)."""
+        s = self.describe()
+        wrap = s["wrap_angle"]
+        what = "an antagonistic pair" if s["quantity"] == "torque" else "a single tendon"
+        lines = [
+            f"passage       {name or self._source or '-'}",
+            f"quantity      {s['quantity']} ({what})",
+            f"frames        {s['n_frames']}  ({s['duration_s']:.1f} s at {s['sample_rate_hz']:g} Hz)",
+            f"trajectories  {s['n_trajectories']}",
+            f"wrap angle    {'inferred (the capstan exponent is fitted)' if wrap is None else f'{wrap:.4g} rad'}",
+        ]
+        for key, r in s["ranges"].items():
+            label, _, unit = key.rpartition("_")
+            lines.append(f"{label:13s} {r['min']:.4g} .. {r['max']:.4g} {unit.replace('*', ' ')}")
+        return "\n".join(lines)
+
+    # ---- a user's files (tendon_id.data.mapping) ----------------------------------------------
+    mapping_keys: ClassVar[tuple[str, ...]] = ("quantity", "geometry")
+
+    @classmethod
+    def mapping_options(cls, doc: dict, where: str) -> dict[str, Any]:
+        """``quantity`` (default ``"tension"``) and ``[geometry] wrap_angle`` (``"infer"``, [rad] or ``"120 deg"``)."""
+        from tendon_id.data.mapping import table
+        from tendon_id.data.units import si_factor
+
+        quantity = doc.get("quantity", "tension")
+        if quantity not in QUANTITIES:
+            raise ConfigError(f"{where}: quantity = {quantity!r}; known: {', '.join(QUANTITIES)}")
+        wrap = table(doc, "geometry", {"wrap_angle"}, where).get("wrap_angle", "infer")
+        if wrap == "infer":
+            wrap = None
+        elif isinstance(wrap, (int, float)) and not isinstance(wrap, bool):
+            wrap = float(wrap)
+        else:
+            wrap = si_factor(str(wrap), "angle", where=f"{where}: geometry.wrap_angle")
+        if wrap is not None and not wrap > 0:
+            raise ConfigError(f"{where}: geometry.wrap_angle must be positive or 'infer', got {wrap!r}")
+        return {"quantity": quantity, "wrap_angle": wrap}
+
+    @classmethod
+    def mapped_signal(cls, column: str, options: dict[str, Any]) -> str | None:
+        if column == "t":
+            return "time"
+        if column in ("input", "output"):
+            return options["quantity"]
+        return "angle" if column in OPTIONAL_COLUMNS else None
+
+    @classmethod
+    def required_columns(cls, options: dict[str, Any]) -> tuple[str, ...]:
+        return PASSAGE_COLUMNS[1:]
+
+    @classmethod
+    def from_mapped(cls, frame: pd.DataFrame, meta: dict[str, Any], options: dict[str, Any], source: str):
+        meta = {**meta, "kind": PASSAGE_KIND, "quantity": options["quantity"], "wrap_angle": options["wrap_angle"]}
+        return cls(frame, meta, source=source)
 
 
 def _range(a: np.ndarray) -> dict[str, float]:

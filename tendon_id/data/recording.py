@@ -1,4 +1,4 @@
-"""The :class:`Recording`: one frame-per-row DataFrame plus metadata (design section 3).
+"""The :class:`Recording`: one frame-per-row DataFrame plus metadata (:doc:`/guide/data`).
 
 The class holds the data and answers questions about it; the work is done by the modules
 beside it: :mod:`~tendon_id.data.normalise` (input into canonical form),
@@ -9,21 +9,22 @@ by trajectory) and :mod:`~tendon_id.data.summary`.
 
 from __future__ import annotations
 
-import copy
 import os
 from collections.abc import Mapping, Sequence
-from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import pandas as pd
 
 from tendon_id.data import validation
-from tendon_id.data.arrays import column_block, frame_from_arrays
-from tendon_id.data.io import read_frame, write_frame
-from tendon_id.data.normalise import float_column, infer_sample_rate, normalise_frame, normalise_meta
+from tendon_id.data.arrays import column_block, concat_frames, frame_from_arrays
+from tendon_id.data.columns import infer_sample_rate
+from tendon_id.data.frame import FrameRecording
+from tendon_id.data.normalise import normalise_frame, normalise_meta
 from tendon_id.data.schema import (
     META_ORDER,
+    TENSION_RE,
+    THETA_RE,
     act_columns,
     hidden_truth_columns,
     infer_n_modules,
@@ -31,14 +32,19 @@ from tendon_id.data.schema import (
     theta_columns,
     truth_columns,
 )
-from tendon_id.data.select import concat_frames, select_rows, split_trajectories, unique_trajectories
-from tendon_id.data.summary import summarise
+from tendon_id.data.select import split_trajectories
+from tendon_id.data.summary import format_summary, summarise
+from tendon_id.errors import RecordingError
+from tendon_id.family.registry import family_named
 
 __all__ = ["Recording"]
 
 
-class Recording:
-    """One recording: a frame-per-row DataFrame plus metadata (design section 3).
+class Recording(FrameRecording):
+    """One recording of a snake robot: a frame-per-row DataFrame plus metadata (:doc:`/guide/data`).
+
+    The snake chain's recording (:mod:`tendon_id.family`); what every recording shares is
+    :class:`~tendon_id.data.frame.FrameRecording`'s.
 
     Parameters
     ----------
@@ -69,7 +75,8 @@ class Recording:
     units: angles in rad, tensions in N, time in s.
     """
 
-    __slots__ = ("_frame", "_meta", "_source")
+    __slots__ = ()
+    family = family_named("snake")
 
     def __init__(
         self,
@@ -97,62 +104,14 @@ class Recording:
     # ---- properties -----------------------------------------------------------------------
 
     @property
-    def frame(self) -> pd.DataFrame:
-        """pandas.DataFrame : The data, one row per frame. Treat as read-only."""
-        return self._frame
-
-    @property
-    def meta(self) -> dict[str, Any]:
-        """dict : A copy of the metadata (keys ``schema_version``, ``n_modules``, ...)."""
-        return copy.deepcopy(self._meta)
-
-    @property
-    def source(self) -> str | None:
-        """str or None : The file this recording was read from, named in error messages."""
-        return self._source
-
-    @property
     def n_modules(self) -> int:
         """int : Number of modules ``N``."""
         return self._meta["n_modules"]
 
     @property
-    def n_frames(self) -> int:
-        """int : Number of frames (rows) ``T``."""
-        return len(self._frame)
-
-    def __len__(self) -> int:
-        return len(self._frame)
-
-    @property
-    def trajectories(self) -> list[str]:
-        """list of str : Trajectory ids in order of first appearance."""
-        return unique_trajectories(self._frame)
-
-    @property
     def protocol(self) -> str | None:
-        """str or None : The motion protocol (design section 5), if known."""
+        """str or None : The motion protocol (:doc:`/guide/simulator`), if known."""
         return self._meta["protocol"]
-
-    @property
-    def sample_rate_hz(self) -> float:
-        """float : Sample rate [Hz]."""
-        return float(self._meta["sample_rate_hz"])
-
-    @property
-    def dt(self) -> float:
-        """float : Nominal sample period ``1 / sample_rate_hz`` [s]."""
-        return 1.0 / self.sample_rate_hz
-
-    @property
-    def time(self) -> np.ndarray:
-        """ndarray, shape (T,) : Time within each trajectory [s]."""
-        return np.array(float_column(self._frame, "t"), dtype=np.float64, copy=True)
-
-    @property
-    def trajectory_ids(self) -> np.ndarray:
-        """ndarray of str, shape (T,) : Trajectory id of every frame."""
-        return self._frame["trajectory"].to_numpy().astype(str)
 
     @property
     def angles(self) -> np.ndarray:
@@ -189,11 +148,6 @@ class Recording:
         n = self.n_modules
         cols = truth_columns(n) + joint_columns(n)
         return column_block(self._frame, cols, (self.n_frames, n, 3))
-
-    @property
-    def trajectory_starts(self) -> np.ndarray:
-        """ndarray of bool, shape (T,) : True on the first frame of each trajectory."""
-        return validation.trajectory_starts(self._frame["trajectory"].to_numpy())
 
     def __repr__(self) -> str:
         src = f", source={self._source!r}" if self._source else ""
@@ -264,17 +218,9 @@ class Recording:
     def read(cls, path: str | os.PathLike, *, validate: bool = True) -> "Recording":
         """Read a recording from ``.parquet`` (or ``.pq``) or ``.csv`` (plus sidecar ``.json``).
 
-        Parameters
-        ----------
-        path : str or path-like
-            The file. For CSV, metadata is read from ``path.with_suffix(".json")`` when it
-            exists; otherwise ``n_modules`` is inferred from the columns and defaults are used.
-        validate : bool, default True
-            Validate the data.
-
-        Returns
-        -------
-        Recording
+        For CSV, metadata is read from ``path.with_suffix(".json")`` when it exists; otherwise
+        ``n_modules`` is inferred from the columns and defaults are used. ``validate=False``
+        skips :meth:`validate`.
 
         Raises
         ------
@@ -282,55 +228,13 @@ class Recording:
             Naming the file, for a missing or unreadable file, an unknown suffix, bad metadata
             or invalid data.
         """
-        path = Path(path)
-        frame, meta = read_frame(path)
-        return cls(frame, meta, source=str(path), validate=validate)
-
-    def write(self, path: str | os.PathLike) -> Path:
-        """Write the recording atomically to ``.parquet`` (or ``.pq``) or ``.csv`` (+ ``.json``).
-
-        Each file is written to a temporary file in the same folder, then renamed over the
-        target, so readers never see a partial file. Parquet output is byte-identical for
-        identical data and metadata (fixed writer options, no timestamps, no pandas metadata).
-
-        Parameters
-        ----------
-        path : str or path-like
-            Target file; its folder is created if needed. For CSV the metadata goes to
-            ``path.with_suffix(".json")``.
-
-        Returns
-        -------
-        pathlib.Path
-            The path written.
-
-        Raises
-        ------
-        RecordingError
-            For an unknown suffix, or data or metadata that cannot be written.
-        """
-        return write_frame(self._frame, self._meta, Path(path))
+        return super().read(path, validate=validate)
 
     # ---- selection -------------------------------------------------------------------------
 
     def _derive(self, frame: pd.DataFrame) -> "Recording":
         """A recording on a subset of this one's (already validated) data."""
         return Recording(frame, self._meta, source=self._source, validate=False)
-
-    def select(self, trajectories: Sequence[str]) -> "Recording":
-        """Recording with only the given trajectories, in this recording's row order.
-
-        Parameters
-        ----------
-        trajectories : sequence of str
-            Trajectory ids; each must exist.
-
-        Returns
-        -------
-        Recording
-            Same metadata and source. Rows in its errors refer to the selection.
-        """
-        return self._derive(select_rows(self._frame, trajectories, source=self._source))
 
     def split(self, fractions: Sequence[float] = (0.7, 0.3), *, seed: int = 0) -> tuple["Recording", ...]:
         """Split by trajectory, never by frame.
@@ -360,32 +264,20 @@ class Recording:
         parts = split_trajectories(self.trajectories, fractions, seed=seed, source=self._source)
         return tuple(self.select(ids) for ids in parts)
 
-    @staticmethod
-    def concat(recordings: Sequence["Recording"]) -> "Recording":
-        """Stack recordings of the same robot size.
+    @classmethod
+    def _check_concat(cls, first: "Recording", other: "Recording") -> None:
+        if other.n_modules != first.n_modules:
+            raise RecordingError(
+                f"cannot concatenate recordings with {first.n_modules} and {other.n_modules} modules", file=other.source
+            )
 
-        Intermediate truth columns are kept only where every input has them; extra columns
-        missing from some inputs are filled with NaN. Metadata comes from the first input;
-        ``protocol``, ``recipe``, ``seed`` and ``robot`` become None where the inputs differ, and
-        ``effects`` is the union in order of first appearance.
-
-        Parameters
-        ----------
-        recordings : sequence of Recording
-            Same ``n_modules`` and ``sample_rate_hz``; trajectory ids must not collide.
-
-        Returns
-        -------
-        Recording
-
-        Raises
-        ------
-        RecordingError
-            For an empty sequence, different ``n_modules`` or sample rates, or a trajectory id
-            that appears in two inputs.
-        """
-        frame, meta = concat_frames(recordings, Recording)
-        return Recording(frame, meta)
+    @classmethod
+    def _concat_frames(cls, recs: list) -> tuple[pd.DataFrame, dict[str, Any]]:
+        """Intermediate truth columns only where every input has them; extra columns missing from some
+        inputs filled with NaN. Metadata from the first input; ``protocol``, ``recipe``, ``seed`` and
+        ``robot`` become None where the inputs differ, and ``effects`` is the union in order of first
+        appearance."""
+        return concat_frames(recs)
 
     def fitting_view(self) -> "Recording":
         """A copy without the intermediate truth columns, for a model's ``fit``.
@@ -454,8 +346,8 @@ class Recording:
         """
         validation.check_history_window(self._frame, h, source=self._source)
 
-    def summary(self) -> dict[str, Any]:
-        """A JSON-serialisable summary, for ``tendon-id info``.
+    def describe(self) -> dict[str, Any]:
+        """A JSON-serialisable description, for ``tendon-id info --json``.
 
         Returns
         -------
@@ -469,3 +361,29 @@ class Recording:
             ``source``.
         """
         return summarise(self)
+
+    def summary(self, name: str | None = None) -> str:
+        """A few aligned lines for ``tendon-id info``; ``name`` is the file shown (default: the source)."""
+        return format_summary(self.describe(), name or self._source or "-")
+
+    # ---- a user's files (tendon_id.data.mapping) ----------------------------------------------
+    mapping_keys: ClassVar[tuple[str, ...]] = ("meta",)
+
+    @classmethod
+    def mapping_options(cls, doc: dict, where: str) -> dict[str, Any]:
+        """A mapping's ``[meta]`` table: the recording's metadata (``n_modules``, ``robot``)."""
+        from tendon_id.data.mapping import table
+
+        return {"meta": dict(table(doc, "meta", set(), where))}
+
+    @classmethod
+    def mapped_signal(cls, column: str, options: dict[str, Any]) -> str | None:
+        if column == "t":
+            return "time"
+        if THETA_RE.match(column):
+            return "angle"
+        return "tension" if TENSION_RE.match(column) else None
+
+    @classmethod
+    def from_mapped(cls, frame: pd.DataFrame, meta: dict[str, Any], options: dict[str, Any], source: str):
+        return cls(frame, {**options["meta"], **meta}, source=source)

@@ -1,4 +1,4 @@
-"""Column names and metadata keys of a recording (design section 3).
+"""Column names and metadata keys of a recording (:doc:`/guide/data`).
 
 Everything here is a name or a constant: which columns a recording of ``N`` modules has, in
 which order, and which metadata keys it carries. Checking values against these names is the
@@ -12,8 +12,6 @@ from collections.abc import Sequence
 
 __all__ = [
     "SCHEMA_VERSION",
-    "META_KEY",
-    "DEFAULT_SAMPLE_RATE_HZ",
     "META_ORDER",
     "AXES",
     "TENDONS",
@@ -33,12 +31,6 @@ __all__ = [
 
 #: Version of the column and metadata schema written by this package.
 SCHEMA_VERSION = 1
-
-#: Key of the Parquet key-value schema metadata that holds the recording metadata (JSON).
-META_KEY = b"tendon_id"
-
-#: Sample rate [Hz] assumed when the metadata does not give one and the time column cannot tell.
-DEFAULT_SAMPLE_RATE_HZ = 10.0
 
 #: Known metadata keys, in the order a recording keeps them (unknown keys follow).
 META_ORDER = ("schema_version", "n_modules", "sample_rate_hz", "protocol", "robot", "recipe", "effects", "seed")

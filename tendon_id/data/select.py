@@ -1,23 +1,20 @@
 """Selecting, splitting and stacking recordings by trajectory, never by frame.
 
-These functions work on DataFrames, trajectory ids and (for :func:`concat_frames`) on
-recordings through their public attributes; :class:`~tendon_id.data.Recording` wraps their
-results into new recordings.
+These functions work on DataFrames and trajectory ids, whatever the recording's family; the
+recording classes (:class:`~tendon_id.data.frame.FrameRecording`) wrap their results into new
+recordings.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from tendon_id.data.schema import truth_columns
 from tendon_id.errors import ConfigError, RecordingError
 
-__all__ = ["unique_trajectories", "select_rows", "split_trajectories", "concat_frames"]
+__all__ = ["unique_trajectories", "select_rows", "split_trajectories"]
 
 
 def unique_trajectories(frame: pd.DataFrame) -> list[str]:
@@ -109,72 +106,3 @@ def split_trajectories(
     order = np.random.default_rng(seed).permutation(n)
     bounds = np.concatenate([[0], np.cumsum(counts)])
     return [[ids[i] for i in sorted(order[bounds[p] : bounds[p + 1]])] for p in range(parts)]
-
-
-def concat_frames(recordings: Sequence[Any], kind: type) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """The stacked frame and merged metadata of recordings of the same robot size.
-
-    Parameters
-    ----------
-    recordings : sequence of Recording
-        Same ``n_modules`` and ``sample_rate_hz``; trajectory ids must not collide.
-    kind : type
-        The recording class every input must be an instance of (passed in by
-        :meth:`Recording.concat <tendon_id.data.Recording.concat>`, which this module cannot
-        import without a cycle).
-
-    Returns
-    -------
-    frame : pandas.DataFrame
-        The rows of every input in order; intermediate truth columns only where every input
-        has them, extra columns missing from some inputs filled with NaN.
-    meta : dict
-        The metadata of the first input; ``protocol``, ``recipe``, ``seed`` and ``robot`` are
-        None where the inputs differ, ``effects`` is the union in order of first appearance.
-
-    Raises
-    ------
-    TypeError
-        For an input that is not a ``kind``.
-    RecordingError
-        For an empty sequence, different ``n_modules`` or sample rates, or a trajectory id
-        that appears in two inputs.
-    """
-    recs = list(recordings)
-    if not recs:
-        raise RecordingError("cannot concatenate zero recordings")
-    first = recs[0]
-    n = first.n_modules
-    seen: dict[str, str | None] = {}
-    for r in recs:
-        if not isinstance(r, kind):
-            raise TypeError(f"expected {kind.__name__}, got {type(r).__name__}")
-        if r.n_modules != n:
-            raise RecordingError(f"cannot concatenate recordings with {n} and {r.n_modules} modules", file=r.source)
-        if not math.isclose(r.sample_rate_hz, first.sample_rate_hz, rel_tol=1e-9):
-            raise RecordingError(
-                f"cannot concatenate recordings sampled at {first.sample_rate_hz} Hz and {r.sample_rate_hz} Hz",
-                file=r.source,
-            )
-        for tid in r.trajectories:
-            if tid in seen:
-                where = seen[tid] or "another recording"
-                raise RecordingError(
-                    f"trajectory id '{tid}' appears in {where} too; rename one", file=r.source, column="trajectory"
-                )
-            seen[tid] = r.source
-    truth = [c for c in truth_columns(n) if all(c in r.frame.columns for r in recs)]
-    drop = set(truth_columns(n)) - set(truth)
-    frames = [r.frame.drop(columns=[c for c in r.frame.columns if c in drop]) for r in recs]
-    frame = pd.concat(frames, axis=0, ignore_index=True, sort=False)
-
-    meta = first.meta
-    others = [r.meta for r in recs[1:]]
-    for key in ("protocol", "recipe", "seed", "robot"):
-        if any(m[key] != meta[key] for m in others):
-            meta[key] = None
-    effects: list[str] = []
-    for m in [meta] + others:
-        effects += [e for e in m["effects"] if e not in effects]
-    meta["effects"] = effects
-    return frame, meta

@@ -1,4 +1,7 @@
-"""A JSON-serialisable summary of a recording, for ``tendon-id info``."""
+"""A snake recording described for ``tendon-id info``: as JSON (:func:`summarise`) and as text.
+
+The text is :func:`format_summary`'s.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +11,7 @@ import numpy as np
 
 from tendon_id.data.schema import intermediate_joints
 
-__all__ = ["summarise"]
+__all__ = ["format_summary", "summarise"]
 
 
 def _range(a: np.ndarray) -> dict[str, float]:
@@ -16,7 +19,7 @@ def _range(a: np.ndarray) -> dict[str, float]:
 
 
 def summarise(recording: Any) -> dict[str, Any]:
-    """The summary returned by :meth:`tendon_id.data.Recording.summary`.
+    """The description returned by :meth:`tendon_id.data.Recording.describe`.
 
     Parameters
     ----------
@@ -27,7 +30,7 @@ def summarise(recording: Any) -> dict[str, Any]:
     Returns
     -------
     dict
-        See :meth:`tendon_id.data.Recording.summary`.
+        See :meth:`tendon_id.data.Recording.describe`.
     """
     rec = recording
     starts = np.flatnonzero(rec.trajectory_starts)
@@ -63,3 +66,32 @@ def summarise(recording: Any) -> dict[str, Any]:
         "seed": meta["seed"],
         "source": rec.source,
     }
+
+
+def format_summary(s: dict, name: str) -> str:
+    """Render :meth:`tendon_id.data.Recording.describe` as a few aligned lines."""
+    r = s.get("ranges", {})
+    truth = s.get("truth", {})
+    inter = truth.get("intermediate_joints") or []
+    lines = [
+        f"recording     {name}",
+        f"modules       {s['n_modules']}",
+        f"frames        {s['n_frames']}  ({s.get('duration_s', 0):.1f} s at {s.get('sample_rate_hz', 0):g} Hz)",
+        f"trajectories  {s['n_trajectories']}",
+        f"protocol      {s.get('protocol') or '-'}",
+        f"recipe        {s.get('recipe') or '-'}   seed {s.get('seed') if s.get('seed') is not None else '-'}",
+        f"effects       {', '.join(s.get('effects') or []) or 'none'}",
+    ]
+    for key, label, unit in (
+        ("angle_deg", "angles", "deg"),
+        ("actuator_n", "actuator", "N"),
+        ("terminal_n", "terminal", "N"),
+    ):
+        if key in r:
+            lo, hi = r[key]["min"], r[key]["max"]
+            lines.append(f"{label:<13} {lo:9.2f} .. {hi:9.2f} {unit}")
+    lines.append(
+        "truth         terminal joint side: yes; intermediate joint sides: "
+        + (f"yes (joints {inter[0]}..{inter[-1]})" if truth.get("intermediate") and inter else "no")
+    )
+    return "\n".join(lines)

@@ -1,4 +1,4 @@
-"""Units of a user's columns, converted to SI once, at the edge (DESIGN §14).
+"""Units of a user's columns, converted to SI once, at the edge (:doc:`/guide/data`).
 
 Unit strings are parsed by pint (a maintained unit library: prefixes, products and numeric
 factors such as ``"turn / 8192"`` or ``"3.9811e-5 N*m"`` come for free), and each signal's

@@ -1,8 +1,9 @@
 """The labelled library of signature regressors, their correlation with the residual, and the sparse vote.
 
-Every candidate block declares its signature (:meth:`tendon_id.zoo.blocks.Block.signature`):
-the change of the terminal reading when the block is added to the base at a typical
-magnitude.  The residual of a base that lacks the effect is, to first order, a multiple
+Every candidate block has a signature, which its family computes
+(:meth:`~tendon_id.family.Family.signatures`): the change of the predicted reading when the
+block is added to the base at a typical magnitude.  The residual of a base that lacks the effect is,
+to first order, a multiple
 of it.  A sparse regression of the residual on all the columns (pysindy's sequentially
 thresholded least squares, Brunton, Proctor & Kutz 2016) keeps the few columns that
 explain it; the effect whose columns carry most of the fitted residual is the vote, an
@@ -18,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.checks import check_choices
 from tendon_id.errors import ConfigError
-from tendon_id.zoo.blocks import EFFECT_BLOCKS
 
 #: STLSQ threshold on standardised coefficients: a column must move the standardised
 #: residual by 5 % of its spread per standard deviation to stay in the model.
@@ -28,17 +29,18 @@ SPARSE_THRESHOLD = 0.05
 PLOT_POINTS = 3000
 
 
-def candidate_names(spec: str | Sequence[str] | None, known=None) -> list[str]:
-    """Validated candidate effect names among ``known`` (default: every snake effect with a block), default all."""
-    known = EFFECT_BLOCKS if known is None else known
+def candidate_names(spec: str | Sequence[str] | None, known) -> list[str]:
+    """Validated candidate effect names among ``known`` (a family's blocks), default all of them.
+
+    ``spec`` is a comma-separated string or a sequence; each name once, in the order given.
+    """
     if spec is None:
         return list(known)
     names = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else [str(p) for p in spec]
     names = [n for n in names if n]
-    unknown = [n for n in names if n not in known]
-    if unknown or not names:
-        raise ConfigError(f"unknown candidate effect(s) {unknown or names}; known: {', '.join(known)}")
-    return list(dict.fromkeys(names))
+    if not names:
+        raise ConfigError(f"no candidate effect given; known: {', '.join(known)}", param="candidates")
+    return check_choices("candidates", names, known, what="candidate effect")
 
 
 @dataclass(frozen=True)
@@ -51,26 +53,14 @@ class Library:
         ``effect`` or ``effect:param`` per column.
     effects : list of str
         The effect of each column.
-    columns : ndarray, shape (T, 3, C)
-        Change of the terminal reading per column [N].
+    columns : ndarray, shape (T, K, C)
+        Change of the predicted reading (K channels: a snake's three tendons, a passage's one
+        side) per column [the family's unit].
     """
 
     labels: list
     effects: list
     columns: NDArray
-
-    @classmethod
-    def build(cls, candidates: dict, base, inputs, A, B, values) -> Library:
-        """The signatures of ``candidates`` (``{effect: Block}``) for ``base`` with law ``(A, B)`` on ``inputs``."""
-        labels, effects, cols = [], [], []
-        reading = base.terminal_reading(inputs, A, B, values)
-        for effect, block in candidates.items():
-            for label, col in block.signature(base, inputs, A, B, values, reading).items():
-                labels.append(label)
-                effects.append(effect)
-                cols.append(col)
-        columns = np.stack(cols, axis=-1) if cols else np.zeros(inputs.terminal.shape + (0,))
-        return cls(labels, effects, columns)
 
     def correlations(self, residual: NDArray) -> dict[str, float]:
         """Pearson correlation of the residual with each column, over frames and tendons."""

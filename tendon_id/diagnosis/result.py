@@ -18,7 +18,7 @@ class CandidateResult:
     Attributes
     ----------
     effect : str
-        Simulator effect name (DESIGN §5).
+        Simulator effect name (:doc:`/guide/simulator`).
     block : dict
         The block as saved (``Block.to_dict``), with its fitted parameters.
     heldout_rmse : float

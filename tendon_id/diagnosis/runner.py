@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.diagnosis.refit import Fit, refit
 from tendon_id.diagnosis.stats import bootstrap_ci, improvement_ci
+from tendon_id.family.fit import Fit
 from tendon_id.progress import progress_bar
 
 
@@ -20,29 +20,19 @@ class Score:
     ----------
     fits : list of Fit
         One per split.
-    residual : ndarray, shape (T, 3)
-        Measured minus predicted terminal reading on the held-out frames of every split [N];
-        NaN in the model's warm-up.
+    residual : ndarray, shape (T, C)
+        Measured minus predicted reading on the held-out frames of every split [the family's
+        unit]; NaN in the model's warm-up.
     """
 
     fits: list
     residual: NDArray
 
 
-def heldout_residual(model, inputs) -> NDArray:
-    """Measured minus predicted terminal reading [N], NaN in the model's warm-up."""
-    e = inputs.terminal - _predict(model, inputs)
-    e[inputs.since_start < float(model.warmup_s)] = np.nan
-    return e
-
-
-def _predict(model, inputs) -> NDArray:
-    return model.terminal_reading(inputs, model.A_, model.B_, model.block_params_)
-
-
-def _task(structure, train, test, start, max_nfev) -> tuple[Fit, NDArray]:
-    fit = refit(structure, train, *start, max_nfev=max_nfev)
-    return fit, heldout_residual(fit.model, test)
+def refit_and_score(family, structure, train, test, start, max_nfev: int) -> tuple[Fit, NDArray]:
+    """One job: refit ``structure`` on ``train`` from ``start``, and its residual on ``test``."""
+    fit = family.refit(structure, train, start, max_nfev)
+    return fit, family.residual(fit.model, test)
 
 
 class Scorer:
@@ -50,18 +40,17 @@ class Scorer:
 
     Parameters
     ----------
+    family : Family
+        Whose :meth:`~tendon_id.family.Family.refit` and :meth:`~tendon_id.family.Family.residual` run.
     splits : list of Split
     settings : DiagnosisSettings
     n_jobs : int, optional
         joblib workers (1: in this process).
     progress : bool, optional
-    task : callable, optional
-        ``task(structure, train, test, start, max_nfev) -> (fit, heldout_residual)``, a
-        module-level function (joblib pickles it); default: the snake's refit.
     """
 
-    def __init__(self, splits, settings, *, n_jobs: int | None = 1, progress: bool | None = None, task=None):
-        self.task = task or _task
+    def __init__(self, family, splits, settings, *, n_jobs: int | None = 1, progress: bool | None = None):
+        self.family = family
         self.splits = splits
         self.settings = settings
         self.n_jobs = 1 if n_jobs is None else int(n_jobs)
@@ -70,16 +59,16 @@ class Scorer:
     def score(self, structures: list, starts: list[list[tuple]], desc: str) -> list[Score]:
         """Refit each structure on each split from ``starts[structure][split]``."""
         jobs = [
-            (structure, split.train, split.test, starts[i][k], self.settings.max_nfev)
+            (self.family, structure, split.train, split.test, starts[i][k], self.settings.max_nfev)
             for i, structure in enumerate(structures)
             for k, split in enumerate(self.splits)
         ]
         if self.n_jobs == 1:
-            out = [self.task(*job) for job in progress_bar(jobs, desc=desc, enable=self.progress)]
+            out = [refit_and_score(*job) for job in progress_bar(jobs, desc=desc, enable=self.progress)]
         else:
             from joblib import Parallel, delayed
 
-            gen = Parallel(n_jobs=self.n_jobs, return_as="generator")(delayed(self.task)(*job) for job in jobs)
+            gen = Parallel(n_jobs=self.n_jobs, return_as="generator")(delayed(refit_and_score)(*job) for job in jobs)
             out = list(progress_bar(gen, desc=desc, total=len(jobs), enable=self.progress))
         n = len(self.splits)
         scores = []

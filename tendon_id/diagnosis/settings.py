@@ -27,7 +27,7 @@ class DiagnosisSettings:
     min_excess : float
         No gap is reported when the base's held-out mean squared error exceeds the upper
         quantile (at ``1 - alpha``) of a perfect model's by less than this share of it [-]
-        (:func:`~tendon_id.diagnosis.stats.noise_floor`), unless a candidate lowers it
+        (:meth:`~tendon_id.family.Family.noise_floor`), unless a candidate lowers it
         significantly by at least this share on the same frames
         (:func:`~tendon_id.diagnosis.verdict.shows_gap`: the ladder's first rung or its end).
         A practical margin: the simulated sensors are an estimate (their clean signals are
@@ -49,16 +49,18 @@ class DiagnosisSettings:
         Candidates tried at each rung after the first: the best of the first ranking.
     max_rungs : int
         Effects a ladder may add.
-    min_rung_gain : float
+    min_rung_gain : float, optional
         Share of the base's gap above the noise floor that a rung must close, besides being
-        significant, to be accepted on a bench's ladder [-]. A block whose parameter fits to its
-        neutral value leaves the model as it was, and the refit's slack can still lower the
-        held-out error by a consistent 1e-9 of it: significant, but no effect.
+        significant, to be accepted on the ladder [-]. Default: the family's
+        (:attr:`~tendon_id.family.Family.min_rung_gain`: 0 for the snake chain, 0.01 for a
+        bench passage, where a block whose parameter fits to its neutral value leaves the model
+        as it was, and the refit's slack can still lower the held-out error by a consistent 1e-9
+        of it: significant, but no effect).
     confound_corr : float
         Correlation between a new block's parameter and the law's above which they are
         reported as confounded [-].
     max_nfev : int
-        Iterations of each refit (:func:`~tendon_id.diagnosis.refit.refit`).
+        Iterations of each refit (:meth:`~tendon_id.family.Family.refit`).
     seed : int
         Seed of the bootstrap.
     """
@@ -74,7 +76,7 @@ class DiagnosisSettings:
     named_share: float = 0.5
     ladder_width: int = 3
     max_rungs: int = 4
-    min_rung_gain: float = 0.01
+    min_rung_gain: float | None = None
     confound_corr: float = 0.9
     max_nfev: int = 60
     seed: int = 0
@@ -89,7 +91,7 @@ class DiagnosisSettings:
             (self.floor_draws >= 5, "floor_draws must be >= 5"),
             (0 < self.named_share <= self.explained_share <= 1, "need 0 < named_share <= explained_share <= 1"),
             (self.ladder_width >= 1 and self.max_rungs >= 1, "ladder_width and max_rungs must be >= 1"),
-            (0 <= self.min_rung_gain < 1, "min_rung_gain must lie in [0, 1)"),
+            (self.min_rung_gain is None or 0 <= self.min_rung_gain < 1, "min_rung_gain must lie in [0, 1)"),
             (0 < self.confound_corr <= 1, "confound_corr must lie in (0, 1]"),
             (self.max_nfev >= 5, "max_nfev must be >= 5"),
         ]

@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-
-from tendon_id.diagnosis.splits import MeasurementNoise
 
 
 def block_bootstrap_means(x: NDArray, block: int, n_boot: int, rng: np.random.Generator) -> NDArray[np.float64]:
@@ -83,10 +80,12 @@ class NoiseFloor:
     Attributes
     ----------
     rmse : float
-        Expected RMS error of a perfect model [N] (the floor the gap is measured from).
+        Expected RMS error of a perfect model [N or the family's unit] (the floor the gap is
+        measured from).
     upper : float
-        Its ``level`` quantile over simulated measurement draws [N]: a base whose error is
-        below this (plus ``min_excess``) is within what the sensors alone can produce.
+        Its ``level`` quantile over simulated measurement draws, where the family simulates
+        them (else ``rmse``): a base whose error is below this (plus ``min_excess``) is within
+        what the sensors alone can produce.
     source : str
         Where the figure comes from.
     """
@@ -94,23 +93,6 @@ class NoiseFloor:
     rmse: float
     upper: float
     source: str
-
-
-def _smooth(x: NDArray, inputs, width: int, *, median: bool = False) -> NDArray:
-    """Moving average (or running median) of ``width`` frames along time, within each trajectory.
-
-    The running median (Tukey 1977) keeps the steps of a step-and-hold protocol sharp,
-    where a moving average would ramp through them; on a monotone ramp both return it.
-    """
-    from scipy.ndimage import median_filter, uniform_filter1d
-
-    out = x.copy()
-    for a, b in inputs.trajectory_bounds:
-        if median:
-            out[a:b] = median_filter(x[a:b], size=(width,) + (1,) * (x.ndim - 1), mode="nearest")
-        else:
-            out[a:b] = uniform_filter1d(x[a:b], size=width, axis=0, mode="nearest")
-    return out
 
 
 def difference_floor(residual: NDArray) -> NoiseFloor:
@@ -122,64 +104,3 @@ def difference_floor(residual: NDArray) -> NoiseFloor:
     """
     f = float(np.nanstd(np.diff(residual, axis=0)) / np.sqrt(2.0))
     return NoiseFloor(f, f, "first differences of the residual")
-
-
-def noise_floor(
-    sensors: MeasurementNoise, model, inputs, residual: NDArray, rng, *, draws: int = 20, level: float = 0.95
-) -> NoiseFloor:
-    """The held-out error of a perfect model on these frames, by simulating the sensors.
-
-    A model is fed measured inputs, so even the true one errs by more than the terminal
-    cell's noise ``sigma``.  A play operator does not pass input errors like a ratio does:
-    a noise spike or an encoder step that moves a stick band edge past the tension drags
-    the output along and it stays there (a ratchet), so the inherited error is heavy-tailed
-    and varies much from one realisation to the next.  It is therefore simulated: from
-    estimates of the clean signals (the actuator cells' running median over 1 s, the angles'
-    average over 3 frames, within each trajectory) each of ``draws`` draws adds ``sigma`` of cell noise
-    and re-reads the angles on the encoder grid at a random offset (a quantum is a function
-    of the true angle, :class:`~tendon_id.sim.Sensors`), and the model's prediction is
-    compared with its prediction from the clean estimates.  A draw's mean squared error is
-    ``sigma^2 + mean(dT^2)``; ``rmse`` is the root of their mean, ``upper`` of their
-    ``level`` quantile.  (On ``snake12-noise-only`` with a nonsmooth capstan, the true
-    law's inherited error was 1.0–1.8 N over ten realisations, and the draws spread over
-    0.9–1.7 N: one realisation is compared with the quantile, not the mean.)
-
-    Without a load-cell noise in the metadata, the floor comes from the residual's first
-    differences (von Neumann 1941): a model error that varies slowly next to the noise
-    cancels in them, so ``floor = std(diff(e)) / sqrt(2)``; it has no spread (``upper = rmse``).
-
-    Parameters
-    ----------
-    sensors : MeasurementNoise
-        Load-cell noise [N] and encoder quantum [rad] from the metadata.
-    model : CapstanModel
-        Fitted base model.
-    inputs : TransmissionInputs
-        Held-out frames.
-    residual : ndarray, shape (T, 3)
-        The base's held-out residual [N].
-    rng : numpy.random.Generator
-    draws : int
-        Simulated measurement draws.
-    level : float
-        Quantile of ``upper``.
-    """
-    sigma = sensors.load_cell
-    if sigma is None or not sigma > 0:
-        return difference_floor(residual)
-    actuator = _smooth(inputs.actuator, inputs, max(int(round(1.0 / inputs.dt)) | 1, 3), median=True)
-    step = sensors.encoder_step
-    angles = _smooth(inputs.angles, inputs, 3) if step else inputs.angles
-    law = (model.A_, model.B_, model.block_params_)
-    clean = model.terminal_reading(dataclasses.replace(inputs, actuator=actuator, angles=angles), *law)
-    mse = np.empty(draws)
-    for k in range(draws):
-        noisy = np.maximum(actuator + sigma * rng.standard_normal(actuator.shape), 1e-3)
-        read = angles
-        if step:
-            offset = rng.uniform(0.0, step, size=angles.shape[1:])
-            read = np.round((angles + offset) / step) * step - offset
-        shaken = model.terminal_reading(dataclasses.replace(inputs, actuator=noisy, angles=read), *law)
-        mse[k] = sigma**2 + np.mean((shaken - clean) ** 2)
-    source = "metadata (load-cell noise" + (", encoder quantum)" if step else ")")
-    return NoiseFloor(float(np.sqrt(mse.mean())), float(np.sqrt(np.quantile(mse, level))), source)

@@ -12,7 +12,7 @@ def within_sensors(mse: float, floor: NoiseFloor, settings) -> bool:
     """Whether a held-out mean squared error [N^2] is within what the sensors alone give.
 
     It is when it is at most ``1 + min_excess`` times the upper quantile of a perfect
-    model's (:func:`~tendon_id.diagnosis.stats.noise_floor`).
+    model's (:meth:`~tendon_id.family.Family.noise_floor`).
     """
     return mse <= floor.upper**2 * (1.0 + settings.min_excess)
 

@@ -1,11 +1,11 @@
 """Where the gap lies: the held-out residual of the base model broken down by stratum.
 
-Each stratum is a set of frames (or frame-tendon pairs) of one regime: one guide bent
-far, just after a reversal of the tension, a band of total wrap, of joint speed, of
-tension, a stretch of the session clock, or the first seconds of each log.  For each the
-diagnosis reports the share of the squared error it holds against its share of the frames
-(a stratum holding 40 % of the error in 10 % of the frames is where the model is wrong)
-and its mean bias.
+Each stratum is a set of frames (or frame-channel pairs) of one regime, which the family
+defines (:meth:`~tendon_id.family.Family.strata`): for the snake chain one guide bent far, just
+after a reversal of the tension, a band of total wrap, of joint speed, of tension, a stretch of
+the session clock, or the first seconds of each log.  For each the diagnosis reports the share
+of the squared error it holds against its share of the frames (a stratum holding 40 % of the
+error in 10 % of the frames is where the model is wrong) and its mean bias.
 """
 
 from __future__ import annotations
@@ -15,13 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from friction_models import play_operator
 from tendon_id.diagnosis.stats import bootstrap_ci
-from tendon_id.geometry import backward_rate
-
-#: Half-width of the log-tension band a tension must cross after a reversal to leave the
-#: "near reversal" stratum [-] (5 %: a few times the stick band of one guide).
-REVERSAL_BAND = 0.05
 
 
 @dataclass(frozen=True)
@@ -33,15 +27,16 @@ class Stratum:
     stratum : str
         What the frames have in common.
     kind : str
-        ``guide``, ``reversal``, ``wrap``, ``speed``, ``tension``, ``time`` or ``start``.
+        What kind of regime (the family's: ``guide``, ``reversal``, ``wrap``, ``speed``,
+        ``tension``, ``load``, ``position``, ``time`` or ``start``).
     share_error : float
         Its share of the held-out squared error [-].
     share_frames : float
         Its share of the held-out frames (frame-tendon pairs) [-].
     bias : float
-        Mean residual, measured minus predicted [N].
+        Mean residual, measured minus predicted [the family's unit].
     bias_ci : tuple of float
-        Block-bootstrap interval of the bias [N].
+        Block-bootstrap interval of the bias.
     """
 
     stratum: str
@@ -105,55 +100,17 @@ def quartile_masks(
     return out
 
 
-def strata_masks(inputs) -> list[tuple[str, str, NDArray]]:
-    """``(name, kind, mask)`` of every stratum; masks have shape (T,) or (T, 3).
+def gap_map(inputs, residual: NDArray, masks, *, block: int, n_boot: int, level: float, rng) -> list[Stratum]:
+    """The strata ``masks`` with their error shares and biases.
 
     Parameters
     ----------
-    inputs : TransmissionInputs
-        The held-out data.
-    """
-    out: list[tuple[str, str, NDArray]] = []
-    wrap = inputs.wrap  # (T, K)
-    for k in range(wrap.shape[1]):
-        w = wrap[:, k]
-        top = np.quantile(w, 0.75)
-        if np.ptp(w) > 1e-3 and (w > top).any():
-            out.append((f"guide {k + 1} bent (wrap > {top:.3f} rad)", "guide", w > top))
-    # Near reversals: a play operator on the actuator tension sticks (sigma = 0) from a
-    # reversal until the tension has moved 2 * REVERSAL_BAND in log away from it.
-    act = inputs.actuator[:, -1]  # (T, 3): the terminal set, the one the labels see
-    stuck = play_operator(np.log(act), REVERSAL_BAND, inputs.reset).sigma == 0
-    out.append(("near tension reversals", "reversal", stuck))
-    out.append(("away from tension reversals", "reversal", ~stuck))
-    for name, mask in quartile_masks(wrap.sum(axis=1), "total wrap", "rad"):
-        out.append((name, "wrap", mask))
-    speed = np.abs(backward_rate(inputs.angles, inputs.reset, inputs.dt)).max(axis=(1, 2))
-    rest = "joints at rest" if speed.min() == 0 else None
-    for name, mask in quartile_masks(speed, "joint speed", "deg/s", np.degrees(1.0), least=rest):
-        out.append((name, "speed", mask))
-    for name, mask in quartile_masks(act, "actuator tension", "N"):
-        out.append((name, "tension", mask))
-    for name, mask in quartile_masks(inputs.clock, "session clock", "s"):
-        out.append((name, "time", mask))
-    # The first seconds of each log: a model that guesses the stick/slip and lag state at a
-    # log's start is wrong there until the state is forgotten.
-    for name, mask in quartile_masks(inputs.since_start, "time since log start", "s"):
-        out.append((name, "start", mask))
-    return out
-
-
-def gap_map(inputs, residual: NDArray, *, block: int, n_boot: int, level: float, rng, masks=None) -> list[Stratum]:
-    """The strata of :func:`strata_masks` (or ``masks``) with their error shares and biases.
-
-    Parameters
-    ----------
-    inputs : TransmissionInputs
+    inputs : FrameInputs
         Held-out data.
-    masks : list of (name, kind, mask), optional
-        Strata of another data kind (a bench passage's).
-    residual : ndarray, shape (T, 3)
-        Measured minus predicted terminal reading of the base [N].
+    residual : ndarray, shape (T, C)
+        Measured minus predicted reading of the base, NaN in its warm-up.
+    masks : list of (name, kind, mask)
+        The family's strata (:meth:`~tendon_id.family.Family.strata`); a mask has shape (T,) or (T, C).
     block : int
         Bootstrap block length [frames].
     """
@@ -162,7 +119,7 @@ def gap_map(inputs, residual: NDArray, *, block: int, n_boot: int, level: float,
     n_all = int(np.isfinite(residual).sum())
     rows = []
     valid = np.isfinite(residual)  # NaN in the model's warm-up
-    for name, kind, mask in strata_masks(inputs) if masks is None else masks:
+    for name, kind, mask in masks:
         m = np.broadcast_to(mask if mask.ndim == 2 else mask[:, None], residual.shape) & valid
         if not m.any():
             continue

@@ -1,10 +1,10 @@
-"""Identifiability of the transmission from terminal-only data (DESIGN §12).
+"""Identifiability of the transmission from terminal-only data (:doc:`/guide/identifiability`).
 
 Which parameters, and which intermediate tensions, does a terminal-only data set
 actually determine?  :func:`analyse` answers for the tied and the per-guide law and
 returns one :class:`IdentifiabilityResult`; :func:`tendon_id.report.identifiability.write_report`
-turns it into a self-contained HTML page and the JSON of DESIGN §10.  The study works on
-:class:`IdentifiabilityProblem`, the calibration's :class:`tendon_id.problem.LawProblem`
+turns it into a self-contained HTML page and the JSON of :doc:`/cli`.  The study works on
+:class:`IdentifiabilityProblem`, the calibration's :class:`tendon_id.calibration.problem.LawProblem`
 restricted to the smooth affine-cosine models.
 """
 

@@ -17,12 +17,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.calibration.problem import constrained_lstsq, delta_method_weight
 from tendon_id.identifiability.band import ambiguity_band
 from tendon_id.identifiability.problem import IdentifiabilityProblem
 from tendon_id.identifiability.sampler import FLAT_SCALE
 from tendon_id.identifiability.settings import StudySettings
 from tendon_id.identifiability.study import TyingStudy
-from tendon_id.problem import constrained_lstsq, delta_method_weight
 
 
 def _joint_weight(problem: IdentifiabilityProblem, joint: int, tendon: int, theta: NDArray) -> NDArray:

@@ -1,4 +1,4 @@
-"""``analyse``: the whole identifiability study of one data set, as one result object (DESIGN §12).
+"""``analyse``: the whole identifiability study of one data set, as one result object (:doc:`/guide/identifiability`).
 
 The study compares the tied law (one ``(A_i, B_i)`` per tendon, the paper's) with the
 per-guide law (one per guide and tendon) on the data's terminal labels only:
@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.calibration.posterior import sample_posterior
 from tendon_id.data import Recording
 from tendon_id.identifiability.advice import excite_joints, instrument_scores, measure_advice
 from tendon_id.identifiability.band import ambiguity_band, band_frames
@@ -25,7 +26,6 @@ from tendon_id.identifiability.learned import learned_comparison
 from tendon_id.identifiability.problem import TYINGS, IdentifiabilityProblem
 from tendon_id.identifiability.settings import MODELS, StudySettings
 from tendon_id.identifiability.study import TyingStudy, study_tying
-from tendon_id.posterior import sample_posterior
 from tendon_id.progress import progress_bar
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
@@ -49,7 +49,7 @@ MISSPECIFIED_RATIO = 1.5
 
 @dataclass
 class IdentifiabilityResult:
-    """The single result of :func:`analyse`; :meth:`to_json` gives the DESIGN §10 shape (a floor).
+    """The single result of :func:`analyse`; :meth:`to_json` gives the :doc:`/cli` shape (a floor).
 
     ``truth`` holds the data's intermediate joint-side truth (T, N, 3) where present; it
     scores the bands and the advice and is never used to fit.
@@ -86,8 +86,8 @@ class IdentifiabilityResult:
             "misspecified": bool(max(ratio) > MISSPECIFIED_RATIO),
         }
 
-    def to_json(self) -> dict:
-        """The study as JSON-able data: DESIGN §10's ``identifiability --json`` shape, and more keys."""
+    def to_dict(self) -> dict:
+        """The study as JSON-able data: :doc:`/cli`'s ``identifiability --json`` shape, and more keys."""
         tied, per = self.studies["tied"], self.studies["per-guide"]
         cov = self.coverage
         bands = {
@@ -234,7 +234,7 @@ def analyse(
 
 
 def _emcee_tied(base: CapstanModel, views: Sequence[Recording], settings: StudySettings) -> dict:
-    """Tied posterior with emcee (:mod:`tendon_id.posterior`): widths, A–B correlations, ESS, R-hat."""
+    """Tied posterior with emcee (:mod:`tendon_id.calibration.posterior`): widths, A–B correlations, ESS, R-hat."""
     # Without the encoder marginalisation, so that it targets the same posterior as the hit-and-run draws.
     post = sample_posterior(
         base, views, target_ess=400.0, max_steps=20000, seed=settings.seed, encoder_bits=None, progress=False
@@ -243,7 +243,7 @@ def _emcee_tied(base: CapstanModel, views: Sequence[Recording], settings: StudyS
     corr = [float(np.corrcoef(A[:, 0, i], B[:, 0, i])[0, 1]) for i in range(3)]
     mu0_sd = [float(x) for x in (A + B)[:, 0].std(axis=0, ddof=1)]
     return {
-        "parameters": post.summary(),
+        "parameters": post.statistics(),
         "corr_A_B": corr,
         "mu0_sd": mu0_sd,
         "tau": float(np.max(post.tau)),

@@ -1,4 +1,4 @@
-"""The intermediate-tension ambiguity band (DESIGN §12).
+"""The intermediate-tension ambiguity band (:doc:`/guide/identifiability`).
 
 For each joint, the spread of the joint-side estimates over the laws that fit the
 terminal data equally well: the posterior draws of
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.problem import LawProblem
+from tendon_id.calibration.problem import LawProblem
 
 
 @dataclass

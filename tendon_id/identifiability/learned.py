@@ -1,4 +1,4 @@
-"""The learned cascade under both tyings: tied against per-guide PG-CHTC networks (DESIGN §12).
+"""The learned cascade under both tyings: tied against per-guide PG-CHTC networks (:doc:`/guide/identifiability`).
 
 Terminal labels do not pin down how the friction splits along the robot, so networks
 trained from different seeds are free to disagree at the intermediate joints: the spread

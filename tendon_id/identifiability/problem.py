@@ -1,6 +1,6 @@
-"""The identifiability study's view of the law problem (DESIGN §12).
+"""The identifiability study's view of the law problem (:doc:`/guide/identifiability`).
 
-:class:`IdentifiabilityProblem` is the :class:`tendon_id.problem.LawProblem` (the one
+:class:`IdentifiabilityProblem` is the :class:`tendon_id.calibration.problem.LawProblem` (the one
 calibration and the posterior consume: design, delta-method weights and layout, built once)
 restricted to what the study analyses, the smooth affine-cosine models (``capstan-simple``,
 ``capstan-contact``), whose terminal log-tension is linear in the law (paper Eqs. (4)–(6)):
@@ -9,7 +9,7 @@ restricted to what the study analyses, the smooth affine-cosine models (``capsta
 
 It adds parameter names by guide and tendon and the weighted constrained fit, and takes
 its terminal design from the same tie-matrix family as every intermediate joint's
-(:meth:`~tendon_id.problem.LawProblem.joint_design`), so that the terminal row is joint
+(:meth:`~tendon_id.calibration.problem.LawProblem.joint_design`), so that the terminal row is joint
 ``N`` of the designs the bands and the advice compare.
 """
 
@@ -21,9 +21,10 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id import problem as law_problem
+from tendon_id.calibration import problem as law_problem
+from tendon_id.calibration.problem import constrained_lstsq
+from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
-from tendon_id.problem import constrained_lstsq
 from tendon_id.zoo.capstan import TYINGS, CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
 
@@ -32,7 +33,7 @@ from tendon_id.zoo.inputs import TransmissionInputs
 class IdentifiabilityProblem(law_problem.LawProblem):
     """Terminal-only data seen through a smooth affine-cosine capstan model, for one tying.
 
-    The attributes are those of :class:`tendon_id.problem.LawProblem`.
+    The attributes are those of :class:`tendon_id.calibration.problem.LawProblem`.
     """
 
     @classmethod
@@ -54,7 +55,7 @@ class IdentifiabilityProblem(law_problem.LawProblem):
         """
         tying = model.tying if tying is None else tying
         if tying not in TYINGS:
-            raise ConfigError(f"tying must be one of {TYINGS}, got {tying!r}")
+            check_choice("tying", tying, TYINGS)
         if not isinstance(model, CapstanModel) or model.mu_law != "affine-cosine" or not model.is_smooth:
             raise ConfigError(
                 "identifiability is analysed on a smooth affine-cosine capstan model "
@@ -66,7 +67,7 @@ class IdentifiabilityProblem(law_problem.LawProblem):
     def design(self) -> NDArray[np.float64]:
         """Terminal design ``X`` (sensitivity of ``-ln T[N, N]``), shape (T, p): ``joint_design(N)``.
 
-        Equal to the calibration's :attr:`tendon_id.problem.LawProblem.design` up to rounding
+        Equal to the calibration's :attr:`tendon_id.calibration.problem.LawProblem.design` up to rounding
         (the tie matrix sums the guides in order, that one pairwise).
         """
         return self.joint_design(self.n_guides + 1)

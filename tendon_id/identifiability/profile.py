@@ -2,7 +2,7 @@
 
 For each parameter (and each guide's ``mu(0) = A + B``) the profile is
 ``PL(v) = min_{theta: c . theta = v, theta feasible} -2 ln L(theta)``, solved exactly
-with nlopt's SLSQP on the quadratic of :meth:`tendon_id.problem.LawProblem.quadratic`.
+with nlopt's SLSQP on the quadratic of :meth:`tendon_id.calibration.problem.LawProblem.quadratic`.
 Relative to the optimum, ``Delta(v) = PL(v) - PL_min``:
 
 * in the Fisher null space (flat until the feasibility limit): structurally
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.law_layout import LawLayout
-from tendon_id.optimize import minimize
+from tendon_id.calibration.law_layout import LawLayout
+from tendon_id.calibration.optimize import minimize
 
 #: Pointwise 95 % threshold of the profile likelihood (chi-square quantile, 1 dof).
 THRESHOLD_95 = 3.841458820694124

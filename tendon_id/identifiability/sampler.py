@@ -1,9 +1,9 @@
 """Exact draws from a Gaussian likelihood truncated to a polytope (hit-and-run).
 
 The smooth capstan law has a Gaussian likelihood in its parameters
-(:meth:`tendon_id.problem.LawProblem.quadratic`) and a uniform prior on the feasible
+(:meth:`tendon_id.calibration.problem.LawProblem.quadratic`) and a uniform prior on the feasible
 polytope ``C theta <= d`` (``mu >= 0`` on ``[0, pi]`` and the sanity limits of
-:class:`~tendon_id.law_layout.LawLayout`).  Where the data are blind (the Fisher
+:class:`~tendon_id.calibration.law_layout.LawLayout`).  Where the data are blind (the Fisher
 null space) the posterior is flat and bounded only by that polytope, which is
 exactly the set of laws that "fit the terminal data equally well".
 

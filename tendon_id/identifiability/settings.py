@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
 from tendon_id.identifiability.sampler import dispersed_starts, hit_and_run_many
 
@@ -51,7 +52,7 @@ class StudySettings:
 
     def __post_init__(self):
         if self.model not in MODELS:
-            raise ConfigError(f"model must be one of {MODELS} (smooth affine-cosine laws), got {self.model!r}")
+            check_choice("model", self.model, MODELS, what="smooth affine-cosine model")
         if self.noise_n is not None and not self.noise_n > 0:
             raise ConfigError(f"noise_n must be a positive load-cell noise in N, got {self.noise_n!r}")
         for name in ("band_frames", "n_chains", "n_steps", "thin"):

@@ -1,7 +1,7 @@
 """Local (structural) identifiability: rank, Fisher eigen-spectrum, and the directions named in words.
 
 The Fisher information of a tendon's law is ``F = X^T W X / sigma^2``
-(:meth:`tendon_id.problem.LawProblem.precision`).  Its null space holds the
+(:meth:`tendon_id.calibration.problem.LawProblem.precision`).  Its null space holds the
 combinations of parameters the data cannot see at all (structural
 non-identifiability); tiny but non-zero eigenvalues are sloppy, practically
 unidentifiable directions (Gutenkunst et al. 2007, "Universally sloppy parameter

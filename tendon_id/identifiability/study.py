@@ -1,4 +1,6 @@
-"""One tying's identifiability study: fit, Fisher spectrum, profiles and exact posterior draws (DESIGN §12).
+"""One tying's identifiability study: fit, Fisher spectrum, profiles and exact posterior draws.
+
+See :doc:`/guide/identifiability`.
 
 :func:`study_tying` runs it on an :class:`~tendon_id.identifiability.problem.IdentifiabilityProblem`
 and returns a :class:`TyingStudy`, whose :meth:`~TyingStudy.to_dict` is the ``tied`` /
@@ -188,7 +190,7 @@ def check_learned_inputs(recs, preset: str = "fast") -> None:
     from tendon_id.errors import ConfigError
 
     if sum(len(r.trajectories) for r in recs) < 2:
-        raise ConfigError("--learned: PG-CHTC needs at least two trajectories (one to train on, one to validate)")
+        raise ConfigError("PG-CHTC needs at least two trajectories (one to train on, one to validate)", param="learned")
     window = get_preset(preset).unit.window
     for r in recs:
         r.check_history_window(window)

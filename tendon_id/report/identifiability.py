@@ -1,4 +1,4 @@
-"""The identifiability report: one self-contained HTML page and the JSON of DESIGN §10."""
+"""The identifiability report: one self-contained HTML page and the JSON of :doc:`/cli`."""
 
 from __future__ import annotations
 
@@ -205,7 +205,7 @@ def _fmt_ci(ci) -> str:
 
 def report_page(result: IdentifiabilityResult) -> HtmlPage:
     """Build the report page of one identifiability result (:func:`~tendon_id.identifiability.analyse`)."""
-    js = result.to_json()
+    js = result.to_dict()
     tied, per = result.studies["tied"], result.studies["per-guide"]
     page = HtmlPage(f"Identifiability report: {Path(result.source).name}")
     page.paragraph(
@@ -376,5 +376,5 @@ def write_report(
     """Write the HTML page (and the JSON summary) atomically."""
     path = report_page(result).write(out)
     if json_path is not None:
-        write_json_atomic(json_path, result.to_json(), strict=True)
+        write_json_atomic(json_path, result.to_dict(), strict=True)
     return path

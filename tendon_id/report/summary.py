@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -84,7 +82,7 @@ def summary_page(recordings: Sequence[Recording], title: str = "tendon-id record
     page.heading("Recordings")
     rows = []
     for rec in recordings:
-        s = rec.summary()
+        s = rec.describe()
         rows.append(
             [
                 rec.protocol or "-",
@@ -126,10 +124,3 @@ def summary_page(recordings: Sequence[Recording], title: str = "tendon-id record
             "the gap below the dashed line is the transmission loss.",
         )
     return page
-
-
-def write_summary(
-    recordings: Sequence[Recording], path: str | os.PathLike, title: str = "tendon-id recording summary"
-) -> Path:
-    """Write the summary page of ``recordings`` to ``path`` (atomically)."""
-    return summary_page(recordings, title).write(path)

@@ -1,4 +1,4 @@
-"""The transmission simulator: the ground truth the toolkit is measured against (DESIGN §5).
+"""The transmission simulator: the ground truth the toolkit is measured against (:doc:`/guide/simulator`).
 
 It is physics (the capstan law of paper Eqs. (4)–(6) with switchable
 unmodelled effects), never a curve chosen to flatter a model.

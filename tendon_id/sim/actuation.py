@@ -14,7 +14,7 @@ from tendon_id.sim.motion import smooth_noise
 
 @dataclass(frozen=True)
 class Actuation:
-    """Tension model of the low-level controller that keeps every tendon taut (DESIGN §5).
+    """Tension model of the low-level controller that keeps every tendon taut (:doc:`/guide/simulator`).
 
     ``T[1, j, i](t) = P (1 + v s_ji(t)) + g [b_j(psi_ji, t)]_+``: a per-trajectory
     pretension level ``P`` (from the protocol's ``pretension_n`` range), a slow

@@ -1,4 +1,4 @@
-"""The switchable unmodelled effects of the simulator (DESIGN §5) and their parameters.
+"""The switchable unmodelled effects of the simulator (:doc:`/guide/simulator`) and their parameters.
 
 Each effect is a frozen dataclass of documented parameters, validated on
 construction.  :class:`Effects` holds which effects are on and their settings.
@@ -10,6 +10,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field, fields
 from types import MappingProxyType
 
+from tendon_id.checks import check_choice, check_keys
 from tendon_id.errors import ConfigError
 
 
@@ -32,7 +33,7 @@ class StickSlip:
     Parameters
     ----------
     driver : {"tension", "motion"}
-        What makes a guide slip. ``"tension"`` (default, DESIGN §5): only a change of the
+        What makes a guide slip. ``"tension"`` (default, :doc:`/guide/simulator`): only a change of the
         tension entering the guide, as in a tendon-sheath whose path is fixed (Kaneko).
         ``"motion"``: also the tendon's sliding through the guide when the joints beyond it
         move and lengthen or shorten its path; a sliding tendon is on the slip edge of its
@@ -287,7 +288,7 @@ def parse_effect_names(spec: str | Iterable[str] | None) -> tuple[str, ...]:
     out = []
     for p in parts:
         if p not in EFFECT_TYPES:
-            raise ConfigError(f"unknown effect {p!r}; known effects: {', '.join(EFFECT_NAMES)} (or 'none')")
+            check_choice("effects", p, EFFECT_NAMES + ("none",), what="effect")
         if p not in out:
             out.append(p)
     return tuple(n for n in EFFECT_NAMES if n in out)  # canonical order
@@ -322,13 +323,11 @@ class Effects:
                 raise ConfigError(f"settings of effect {name!r} must be a table of values, got {value!r}")
             raw = dict(value or {})
             known = {f.name for f in fields(cls)}
-            unknown = sorted(set(raw) - known)
-            if unknown:
-                raise ConfigError(f"unknown setting(s) {unknown} for effect {name!r}; known: {sorted(known) or 'none'}")
+            check_keys(raw, known, what=f"setting of effect {name!r}")
             built[name] = cls(**raw)
         for name in self.params if isinstance(self.params, Mapping) else ():
             if name not in EFFECT_TYPES:
-                raise ConfigError(f"settings given for unknown effect {name!r}; known: {', '.join(EFFECT_NAMES)}")
+                check_choice("effects", name, EFFECT_NAMES, what="effect")
         object.__setattr__(self, "enabled", enabled)
         object.__setattr__(self, "params", MappingProxyType(built))
 

@@ -1,4 +1,4 @@
-"""Motion protocols of the paper's Section IV-A (DESIGN §5).
+"""Motion protocols of the paper's Section IV-A (:doc:`/guide/simulator`).
 
 Each protocol turns a random generator and its settings into a list of
 trajectories of true joint angles, shape ``(frames, N, 2)`` [rad], sampled at
@@ -16,6 +16,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.checks import check_keys
 from tendon_id.errors import ConfigError
 from tendon_id.sim.motion import PathBuilder
 
@@ -82,9 +83,7 @@ class ProtocolSettings:
     def from_dict(cls, name: str, d: dict) -> ProtocolSettings:
         """Build from a recipe's ``[protocols.NAME]`` table; unknown keys are an error."""
         known = {f.name for f in fields(cls)}
-        unknown = sorted(set(d) - known)
-        if unknown:
-            raise ConfigError(f"unknown setting(s) {unknown} for protocol {name!r}; known: {sorted(known)}")
+        check_keys(d, known, what=f"setting of protocol {name!r}")
         return cls(**d)
 
 
@@ -217,9 +216,3 @@ PROTOCOLS: dict[str, Callable] = {
     "planned-paths": planned_paths,
     "single-passage": single_passage,
 }
-
-
-def check_protocol(name: str) -> str:
-    if name not in PROTOCOLS:
-        raise ConfigError(f"unknown protocol {name!r}; known: {', '.join(PROTOCOL_NAMES)}")
-    return name

@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
+from tendon_id.checks import check_choice, check_keys
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
 from tendon_id.sim.actuation import Actuation
@@ -26,9 +27,7 @@ else:  # pragma: no cover
 def _build(cls, section: str, d: Mapping | None):
     d = dict(d or {})
     known = {f.name for f in fields(cls)}
-    unknown = sorted(set(d) - known)
-    if unknown:
-        raise ConfigError(f"unknown setting(s) {unknown} in [{section}]; known: {sorted(known)}")
+    check_keys(d, known, what=f"setting of [{section}]")
     try:
         return cls(**d)
     except TypeError as exc:  # wrong value types from TOML
@@ -37,7 +36,7 @@ def _build(cls, section: str, d: Mapping | None):
 
 @dataclass(frozen=True)
 class Recipe:
-    """Everything the simulator needs to make one dataset (DESIGN §5).
+    """Everything the simulator needs to make one dataset (:doc:`/guide/simulator`).
 
     Attributes
     ----------
@@ -93,7 +92,7 @@ class Recipe:
     def protocol(self, name: str) -> ProtocolSettings:
         """Settings of protocol ``name`` (the paper's frame count when the recipe is silent)."""
         if name not in PROTOCOL_NAMES:
-            raise ConfigError(f"unknown protocol {name!r}; known: {', '.join(PROTOCOL_NAMES)}")
+            check_choice("protocol", name, PROTOCOL_NAMES)
         if name in self.protocols:
             return self.protocols[name]
         return ProtocolSettings(frames=PAPER_FRAMES[name])
@@ -142,9 +141,7 @@ class Recipe:
             "protocols",
             "card",
         }
-        unknown = sorted(set(d) - known)
-        if unknown:
-            raise ConfigError(f"{source}: unknown section(s) {unknown}; known: {sorted(known)}")
+        check_keys(d, known, what="section", where=str(source))
         if "name" not in d:
             raise ConfigError(f"{source}: a recipe needs a name")
         try:
@@ -154,7 +151,7 @@ class Recipe:
             protocols = {}
             for pname, pset in dict(d.get("protocols", {})).items():
                 if pname not in PROTOCOL_NAMES:
-                    raise ConfigError(f"unknown protocol {pname!r}; known: {', '.join(PROTOCOL_NAMES)}")
+                    check_choice("protocol", pname, PROTOCOL_NAMES)
                 protocols[pname] = ProtocolSettings.from_dict(pname, dict(pset))
             return cls(
                 name=str(d["name"]),

@@ -1,4 +1,4 @@
-"""Load cells and encoders: noise, range and quantisation (DESIGN §5)."""
+"""Load cells and encoders: noise, range and quantisation (:doc:`/guide/simulator`)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Simulate a protocol of a recipe into a :class:`~tendon_id.data.Recording` (DESIGN §5)."""
+"""Simulate a protocol of a recipe into a :class:`~tendon_id.data.Recording` (:doc:`/guide/simulator`)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.checks import check_count
 from tendon_id.data import Recording
-from tendon_id.errors import ConfigError
 from tendon_id.progress import progress_bar
 from tendon_id.sim.effects import Effects, parse_effect_names
 from tendon_id.sim.motion import PathBuilder
@@ -131,9 +131,7 @@ def simulate(
     """
     settings = recipe.protocol(protocol)
     if frames is not None:
-        if int(frames) < 2:
-            raise ConfigError(f"--frames must be at least 2, got {frames}")
-        settings = type(settings)(**{**settings.__dict__, "frames": int(frames)})
+        settings = type(settings)(**{**settings.__dict__, "frames": check_count("frames", frames, 2)})
     seed = recipe.seed if seed is None else int(seed)
     eff: Effects = recipe.effects if effects is None else recipe.effects.with_enabled(parse_effect_names(effects))
     geometry = recipe.robot_for(protocol)

@@ -7,7 +7,7 @@ vectorised over a batch of robots, sets and tendons.  It shares the wraps and th
 exponent with ``transmit`` (:class:`~tendon_id.sim.transmission.GuideWraps`,
 :func:`~tendon_id.sim.transmission.guide_exponent`); its two states are
 
-* the play operator's output per guide (DESIGN §5, Kaneko-style nonsmooth capstan)::
+* the play operator's output per guide (:doc:`/guide/simulator`, Kaneko-style nonsmooth capstan)::
 
       ln T[k+1](t) = clamp(ln T[k+1](t-), ln T[k](t) - phi, ln T[k](t) + phi)
 
@@ -84,7 +84,7 @@ class TransmissionStepper:
         self.play = np.zeros((self.batch, n - 1, n, 3))  # play output per guide [ln N]
         self.z = np.zeros((self.batch, n - 1, n, 3))  # viscoelastic relaxing part [N]
         self.lo, self.hi = np.zeros_like(self.play), np.zeros_like(self.play)  # the play's edges [ln N]
-        # set j passes guides 1..j-1: guide index g carries set indices g+1.. (DESIGN §1)
+        # set j passes guides 1..j-1: guide index g carries set indices g+1.. (docs/guide/problem.rst)
         self._on_path = (np.arange(n)[None, :] > np.arange(n - 1)[:, None]).astype(np.int8)[None, :, :, None]
         self.started = False
 

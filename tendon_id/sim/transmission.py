@@ -1,4 +1,4 @@
-"""Truth physics of the tendon transmission, one frame block at a time (DESIGN §5).
+"""Truth physics of the tendon transmission, one frame block at a time (:doc:`/guide/simulator`).
 
 For every set ``j`` and tendon ``i`` the guides are taken from proximal to
 distal.  Through guide ``k`` the capstan exponent is
@@ -147,7 +147,7 @@ class TransmissionResult:
 
 
 class GuideWraps:
-    """Wrap [rad] of every guide over a block of frames, by the recipe's wrap model (DESIGN §4).
+    """Wrap [rad] of every guide over a block of frames, by the recipe's wrap model (:doc:`/guide/geometry`).
 
     Without ``per_tendon_wrap`` it is the backbone wrap of paper Eq. (3), shared by every set and
     tendon; with it, the exact turns of the hole points (``model = "exact"``) or the projected
@@ -223,7 +223,7 @@ def _negative_law(alpha: float, where: str) -> ConfigError:
 
 
 def guide_exponent(mu: NDArray, alpha: NDArray, geometry: RobotGeometry, effects: Effects, wear=None) -> NDArray:
-    """Capstan exponent ``phi = w_k mu beta alpha`` (paper Eqs. (5)-(6), DESIGN §5).
+    """Capstan exponent ``phi = w_k mu beta alpha`` (paper Eqs. (5)-(6), :doc:`/guide/simulator`).
 
     ``wear`` is the guide's wear factor ``w_k`` (or factors broadcastable to ``mu``); None for 1.
     """

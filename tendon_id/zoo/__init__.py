@@ -1,4 +1,4 @@
-"""The model zoo: every transmission hypothesis behind one ``fit``/``predict`` interface (DESIGN §6).
+"""The model zoo: every transmission hypothesis behind one ``fit``/``predict`` interface (:doc:`/guide/zoo`).
 
 >>> from tendon_id import zoo
 >>> model = zoo.make("capstan-nonsmooth", tying="tied")    # doctest: +SKIP
@@ -24,11 +24,9 @@ from tendon_id.zoo.blocks import (
 )
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
-from tendon_id.zoo.persistence import load_model
+from tendon_id.zoo.persistence import load
 from tendon_id.zoo.proximal import ProximalModel
-from tendon_id.zoo.registry import make, model_class, names, names_of, register
-
-load = load_model
+from tendon_id.zoo.registry import make, model_class, names, names_of, register, unregister
 
 __all__ = [
     "BendingStiffness",
@@ -47,10 +45,10 @@ __all__ = [
     "VelocityFriction",
     "ViscoelasticLag",
     "load",
-    "load_model",
     "make",
     "model_class",
     "names",
     "names_of",
     "register",
+    "unregister",
 ]

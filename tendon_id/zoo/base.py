@@ -4,7 +4,7 @@
 * ``fit(data)`` returns ``self``; fitted state ends in ``_``.
 * ``predict(data)`` returns joint-side estimates ``T[j, j, i]``, shape (T, N, 3) [N],
   without side effects; ``predict_chain`` every ``T[k, j, i]``, shape (T, N, N, 3).
-* ``save(dir)``: ``model.json`` plus ``arrays.npz`` (never pickle); :func:`tendon_id.zoo.load_model`
+* ``save(dir)``: ``model.json`` plus ``arrays.npz`` (never pickle); :func:`tendon_id.zoo.load`
   reads it back.
 """
 
@@ -18,6 +18,7 @@ import numpy as np
 
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
+from tendon_id.family.registry import family_named
 from tendon_id.metrics import tendon_metrics
 from tendon_id.zoo.estimator import FORMAT_VERSION, Estimator, NotFittedError
 from tendon_id.zoo.inputs import as_recordings
@@ -26,7 +27,9 @@ __all__ = ["FORMAT_VERSION", "NotFittedError", "TransmissionModel"]
 
 
 class TransmissionModel(Estimator):
-    """Base class of the snake models of the zoo (see the module docstring)."""
+    """Base class of the snake chain's models of the zoo (see the module docstring)."""
+
+    family = family_named("snake")
 
     # ---- fitting and prediction (each model implements fit and predict_chain) ------------
     @abc.abstractmethod
@@ -62,7 +65,7 @@ class TransmissionModel(Estimator):
         return recs
 
     def score(self, data: Recording | Sequence[Recording]) -> dict[str, Any]:
-        """Metrics of DESIGN §8: ``{"terminal": M, "joints": {"overall": M, "per_joint": [M, ...]} | None}``.
+        """Metrics of :doc:`/guide/zoo`: ``{"terminal": M, "joints": {"overall": M, "per_joint": [M, ...]} | None}``.
 
         ``joints`` needs simulator truth: ``per_joint`` lists joints ``1..N`` and
         ``overall`` pools the intermediate joints ``2..N-1``.

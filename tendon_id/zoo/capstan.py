@@ -24,12 +24,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.calibration import calibrate_capstan
+from tendon_id.calibration.law import calibrate_capstan
+from tendon_id.checks import check_choice, check_count, check_positive
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
 from tendon_id.zoo.base import TransmissionModel
-from tendon_id.zoo.blocks import Block, Passage, as_block, block_from_dict
+from tendon_id.zoo.blocks import Block, HookContext, as_block, block_from_dict, compose
 from tendon_id.zoo.chain import ExponentTerms, apply_sensor, exponent, exponent_terms, propagate_chain
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 
@@ -106,32 +107,16 @@ class CapstanModel(TransmissionModel):
         self.warmup_s = warmup_s
 
     # ---- structure -----------------------------------------------------------
+    def check_settings(self) -> None:
+        self._validated()
+
     def _validated(self) -> tuple[Block, ...]:
-        if self.mu_law not in MU_LAWS:
-            raise ConfigError(f"mu_law must be one of {MU_LAWS}, got {self.mu_law!r}")
-        if self.tying not in TYINGS:
-            raise ConfigError(f"tying must be one of {TYINGS}, got {self.tying!r}")
-        if int(self.n_starts) < 1 or int(self.maxeval) < 10:
-            raise ConfigError("n_starts must be >= 1 and maxeval >= 10")
-        if not float(self.warmup_s) >= 0:
-            raise ConfigError(f"warmup_s must be a non-negative time in s, got {self.warmup_s!r}")
-        blocks = tuple(as_block(b) for b in self.blocks)
-        effects = {b.effect for b in blocks}
-        for b in blocks:
-            missing = [r for r in b.requires if r not in effects]
-            if missing:
-                raise ConfigError(f"the {b.name} block refines {', '.join(missing)}: add that effect's block too")
-        if (
-            sum(b.stage == "propagate" and not b.requires for b in blocks) > 1
-            or sum(b.stage == "propagate" and bool(b.requires) for b in blocks) > 1
-        ):
-            raise ConfigError("a model can have at most one propagation block (hysteresis), and one that refines it")
-        if sum(b.stage == "wrap" for b in blocks) > 1:
-            raise ConfigError("a model can have at most one wrap block")
-        names = [b.name for b in blocks]
-        if len(set(names)) != len(names):
-            raise ConfigError(f"each block may appear once, got {names}")
-        return blocks
+        check_choice("mu_law", self.mu_law, MU_LAWS, what="friction law")
+        check_choice("tying", self.tying, TYINGS)
+        check_count("n_starts", self.n_starts, 1)
+        check_count("maxeval", self.maxeval, 10)
+        check_positive("warmup_s", self.warmup_s, "s", allow_zero=True)
+        return compose(self.blocks)
 
     @property
     def block_objects(self) -> tuple[Block, ...]:
@@ -175,11 +160,11 @@ class CapstanModel(TransmissionModel):
     def exponent_multiplier(self, inputs: TransmissionInputs, values: dict | None = None) -> NDArray:
         """Product of the tendon-independent exponent blocks' factors at the backbone wrap, shape (T, N-1, 1).
 
-        The linear design of :class:`~tendon_id.problem.LawProblem` uses it; per-tendon blocks
+        The linear design of :class:`~tendon_id.calibration.problem.LawProblem` uses it; per-tendon blocks
         (wraps, sliding speeds) count as 1 there.
         """
         values = self.block_params() if values is None else values
-        ctx = Passage(inputs, np.array([inputs.n_modules - 1]), np.arange(3), alpha=inputs.wrap[:, :, None, None])
+        ctx = HookContext(inputs, np.array([inputs.n_modules - 1]), np.arange(3), alpha=inputs.wrap[:, :, None, None])
         m = np.ones(inputs.wrap.shape + (1, 1))
         for b in self.block_objects:
             if b.stage == "exponent" and not b.per_tendon:
@@ -259,7 +244,7 @@ class CapstanModel(TransmissionModel):
         """Predicted terminal load-cell reading [N], shape (T, m) (the sensor blocks applied)."""
         values, sets, tendons = self._chain_defaults(inputs, values, np.array([inputs.n_modules - 1]), tendons)
         log_t = self.propagate(inputs, A, B, values, sets=sets, tendons=tendons, keep_chain=False, terms=terms)
-        return apply_sensor(self.block_objects, np.exp(log_t[:, 0]), Passage(inputs, sets, tendons), values)
+        return apply_sensor(self.block_objects, np.exp(log_t[:, 0]), HookContext(inputs, sets, tendons), values)
 
     # ---- estimator API ---------------------------------------------------------------
     def fit(self, data: Recording | Sequence[Recording]) -> CapstanModel:
@@ -273,7 +258,7 @@ class CapstanModel(TransmissionModel):
         result = calibrate_capstan(self, inputs)
         self.A_, self.B_ = result.A, result.B
         self.block_values_ = result.block_values
-        self.calibration_ = result.summary()
+        self.calibration_ = result.to_dict()
         self.geometry_ = inputs.geometry
         self.n_modules_ = inputs.n_modules
         return self

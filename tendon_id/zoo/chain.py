@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.zoo.blocks import Block, Passage
+from tendon_id.zoo.blocks import Block, HookContext
 
 
 @dataclass(frozen=True)
@@ -30,17 +30,17 @@ class ExponentTerms:
         ``cos(alpha)`` of the wrap the law sees, shape ``(T, K, S|1, m|1)``.
     scaled : ndarray
         The wrap times the exponent blocks' factors, same shape [rad].
-    ctx : Passage
+    ctx : HookContext
     """
 
     cos_alpha: NDArray
     scaled: NDArray
-    ctx: Passage
+    ctx: HookContext
 
 
 def exponent_terms(blocks: Sequence[Block], inputs, values: dict, sets: NDArray, tendons: NDArray) -> ExponentTerms:
     """Apply the ``wrap`` and ``exponent`` blocks: what the exponent is, short of the law's coefficients."""
-    ctx = Passage(inputs, np.asarray(sets), np.asarray(tendons))
+    ctx = HookContext(inputs, np.asarray(sets), np.asarray(tendons))
     alpha = inputs.wrap[:, :, None, None]  # the backbone wrap, paper Eq. (3), shared by sets and tendons
     cos_alpha = inputs.cos_wrap[:, :, None, None]
     wraps = [b for b in blocks if b.stage == "wrap"]
@@ -151,7 +151,7 @@ def step_block(blocks: Sequence[Block]) -> Block | None:
     return next((b for b in props if b.requires), props[0] if props else None)
 
 
-def apply_sensor(blocks: Sequence[Block], tension: NDArray, ctx: Passage, values: dict) -> NDArray:
+def apply_sensor(blocks: Sequence[Block], tension: NDArray, ctx: HookContext, values: dict) -> NDArray:
     """The sensor blocks on a predicted terminal reading [N], shape (T, m)."""
     for b in blocks:
         if b.stage == "sensor":

@@ -2,7 +2,7 @@
 
 * ``__init__`` only stores settings; ``get_params``/``set_params`` read them back.
 * ``fit(data)`` returns ``self``; fitted state ends in ``_``; ``predict`` has no side effects.
-* ``save(dir)``: ``model.json`` plus ``arrays.npz`` (never pickle); :func:`tendon_id.zoo.load_model`
+* ``save(dir)``: ``model.json`` plus ``arrays.npz`` (never pickle); :func:`tendon_id.zoo.load`
   reads it back.
 
 :class:`~tendon_id.zoo.base.TransmissionModel` (a snake's tendons) and
@@ -61,6 +61,9 @@ class Estimator(abc.ABC):
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}({args})"
+
+    def check_settings(self) -> None:
+        """Raise ConfigError for settings that cannot work, before any data is read (default: nothing to check)."""
 
     @property
     @abc.abstractmethod

@@ -44,7 +44,7 @@ def guard_report(cascade_rmse: float, prior_rmse: float, prior: str, frames: int
     Parameters
     ----------
     cascade_rmse, prior_rmse : float
-        Terminal RMSE on the validation trajectories [N] (DESIGN §8, mean over tendons).
+        Terminal RMSE on the validation trajectories [N] (:doc:`/guide/zoo`, mean over tendons).
     prior : str
         The prior model's zoo name.
     frames : int

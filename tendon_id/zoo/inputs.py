@@ -5,12 +5,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
+from tendon_id.family.inputs import FrameInputs
 from tendon_id.geometry import RobotGeometry, backbone_wrap
 
 
@@ -51,8 +53,8 @@ def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None
 
 
 @dataclass(frozen=True)
-class TransmissionInputs:
-    """Everything an analytic transmission model reads, as arrays over all frames.
+class TransmissionInputs(FrameInputs):
+    """Everything an analytic transmission model reads, as arrays over all frames: the snake chain's inputs.
 
     Attributes
     ----------
@@ -73,6 +75,8 @@ class TransmissionInputs:
     geometry : RobotGeometry
     """
 
+    frame_fields: ClassVar[tuple[str, ...]] = ("angles", "actuator", "terminal", "reset", "clock")
+
     angles: NDArray[np.float64]
     actuator: NDArray[np.float64]
     terminal: NDArray[np.float64]
@@ -82,16 +86,6 @@ class TransmissionInputs:
     geometry: RobotGeometry = field(compare=False)
     cache: dict = field(default_factory=dict, init=False, compare=False, repr=False)
 
-    def memo(self, key: str, compute):
-        """``compute()`` once per key: derived arrays that blocks read on every evaluation (wraps, speeds)."""
-        if key not in self.cache:
-            self.cache[key] = compute()
-        return self.cache[key]
-
-    @property
-    def n_frames(self) -> int:
-        return self.angles.shape[0]
-
     @property
     def n_modules(self) -> int:
         return self.angles.shape[1]
@@ -100,19 +94,6 @@ class TransmissionInputs:
     def wrap(self) -> NDArray[np.float64]:
         """Backbone wrap per guide, paper Eq. (3), shape (T, N-1) [rad]."""
         return backbone_wrap(self.angles, self.geometry.alpha_0)
-
-    @cached_property
-    def trajectory_bounds(self) -> list[tuple[int, int]]:
-        """``(start, end)`` frame indices of each trajectory, in order."""
-        starts = np.flatnonzero(self.reset)
-        return list(zip(starts.tolist(), starts[1:].tolist() + [self.n_frames]))
-
-    @cached_property
-    def since_start(self) -> NDArray[np.float64]:
-        """Time since the start of each frame's trajectory [s], shape (T,)."""
-        idx = np.arange(self.n_frames)
-        last_reset = np.maximum.accumulate(np.where(self.reset, idx, 0))
-        return (idx - last_reset) * self.dt
 
     @cached_property
     def cos_wrap(self) -> NDArray[np.float64]:

@@ -1,4 +1,4 @@
-"""PG-CHTC in the zoo: the paper's physics-guided cascade behind ``fit``/``predict`` (DESIGN §9)."""
+"""PG-CHTC in the zoo: the paper's physics-guided cascade behind ``fit``/``predict`` (:doc:`/guide/pgchtc`)."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from learners.streaming_native import KernelUnavailable, NativeStreamingCascade
 from learners.streaming_native import disabled as native_disabled
 from learners.streaming_pack import WEIGHT_FORMATS
 from learners.training import Sequences, TrainingError, fit_feature_norm, train_two_stage
+from tendon_id.checks import check_choice
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.geometry import RobotGeometry, sin_q
@@ -340,11 +341,11 @@ class PGCHTCStream:
 
     def __init__(self, model: PGCHTC, engine: str = "auto", threads: int | str | None = None, weights: str = "float32"):
         if engine not in STREAM_ENGINES:
-            raise ConfigError(f"engine must be one of {', '.join(STREAM_ENGINES)}; got {engine!r}")
+            check_choice("engine", engine, STREAM_ENGINES, what="streaming engine")
         if threads not in (None, 1, 2, "auto"):
             raise ConfigError(f"threads must be 1, 2 or 'auto'; got {threads!r}")
         if weights not in WEIGHT_FORMATS:
-            raise ConfigError(f"weights must be one of {', '.join(WEIGHT_FORMATS)}; got {weights!r}")
+            check_choice("weights", weights, WEIGHT_FORMATS, what="weight format")
         if weights != "float32":
             if engine == "torch":
                 raise ConfigError(f"weights={weights!r} needs the native engine; the torch engine computes in float32")

@@ -1,6 +1,6 @@
 """What the neural models of the zoo share: the device they train on and their weights on disk.
 
-Weights are stored as one safetensors blob inside the model's ``arrays.npz`` (DESIGN §6:
+Weights are stored as one safetensors blob inside the model's ``arrays.npz`` (:doc:`/guide/zoo`:
 JSON plus npz, never pickle), so a learned model saves through the same
 :meth:`~tendon_id.zoo.base.TransmissionModel.save` as an analytic one.
 """

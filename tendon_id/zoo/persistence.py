@@ -14,8 +14,8 @@ from tendon_id.zoo.estimator import FORMAT_VERSION, Estimator
 from tendon_id.zoo.registry import model_class
 
 
-def load_model(path: str | os.PathLike) -> Estimator:
-    """Load a model saved by :meth:`TransmissionModel.save`.
+def load(path: str | os.PathLike) -> Estimator:
+    """Load a model saved by :meth:`~tendon_id.zoo.estimator.Estimator.save` (``tendon-id fit``).
 
     Only the saved model's own module is imported (a capstan model loads without torch).
 

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import importlib
 
+from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
-from tendon_id.zoo.base import TransmissionModel
+from tendon_id.zoo.estimator import Estimator
 
 #: Built-in models: registry name -> ``"module:Class"``, in the order ``names()`` lists them.
 BUILTIN: dict[str, str] = {
@@ -28,13 +29,21 @@ BUILTIN: dict[str, str] = {
     "passage-capstan": "tendon_id.zoo.passage.model:PassageCapstan",
 }
 
-_REGISTRY: dict[str, type[TransmissionModel] | str] = dict(BUILTIN)
+_REGISTRY: dict[str, type[Estimator] | str] = dict(BUILTIN)
 
 
-def register(cls: type[TransmissionModel]) -> type[TransmissionModel]:
+def register(cls: type[Estimator]) -> type[Estimator]:
     """Add a model class under its ``name`` (usable as a decorator)."""
     _REGISTRY[cls.name] = cls
     return cls
+
+
+def unregister(name: str) -> None:
+    """Remove the model registered as ``name`` (a built-in one comes back as it was)."""
+    if name in BUILTIN:
+        _REGISTRY[name] = BUILTIN[name]
+    else:
+        _REGISTRY.pop(check_choice("model", name, _REGISTRY), None)
 
 
 def names() -> list[str]:
@@ -42,7 +51,7 @@ def names() -> list[str]:
     return list(_REGISTRY)
 
 
-def names_of(family: type[TransmissionModel]) -> list[str]:
+def names_of(family: type[Estimator]) -> list[str]:
     """Registered names whose class is ``family`` or derives from it.
 
     Built-in models are only imported from ``family``'s own module (listing the capstan
@@ -57,22 +66,26 @@ def names_of(family: type[TransmissionModel]) -> list[str]:
     return out
 
 
-def model_class(name: str) -> type[TransmissionModel]:
+def model_class(name: str) -> type[Estimator]:
     """The class registered as ``name``, importing its module on first use."""
-    if name not in _REGISTRY:
-        raise ConfigError(f"unknown model {name!r}; known models: {', '.join(names())}")
-    entry = _REGISTRY[name]
+    entry = _REGISTRY[check_choice("model", name, _REGISTRY)]
     if isinstance(entry, str):
         module, _, attr = entry.partition(":")
         entry = _REGISTRY[name] = getattr(importlib.import_module(module), attr)
     return entry
 
 
-def make(name: str, **params) -> TransmissionModel:
-    """Build an unfitted model; ``params`` are its settings (see its class)."""
+def make(name: str, **params) -> Estimator:
+    """Build an unfitted model; ``params`` are its settings (see its class).
+
+    Raises
+    ------
+    ConfigError
+        For an unknown model, or a setting it does not have (naming that setting as the parameter).
+    """
     cls = model_class(name)
     known = cls.param_names()
     unknown = sorted(set(params) - set(known))
     if unknown:
-        raise ConfigError(f"model {name!r} has no setting(s) {unknown}; its settings: {', '.join(known)}")
+        raise ConfigError(f"no setting of model {name!r}; its settings: {', '.join(known)}", param=unknown[0])
     return cls(**params)

@@ -4,7 +4,7 @@ The cascade's memory is its prior's play-operator state, so a frame needs nothin
 past but that state: per guide, the play operator's output, the frames since it last moved
 and the range its input has swept (:class:`friction_models.play_state.PlayStateStream`).
 The correction's MLP runs in float64 numpy on the trained float32 weights; batch inference
-runs it in float32 torch, and the two agree to far better than the 1e-5 relative DESIGN §9
+runs it in float32 torch, and the two agree to far better than the 1e-5 relative :doc:`/guide/pgchtc`
 asks (``tests/zoo/test_pgchtc_ns.py``).
 """
 

@@ -9,7 +9,7 @@ import pytest
 from tendon_id.cli import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from test_data import BAD, make_recording  # noqa: E402  (the bad inputs of DESIGN §3)
+from test_data import BAD, make_recording  # noqa: E402  (the bad inputs of docs/guide/data.rst)
 
 
 def run(capsys, *argv):
@@ -113,7 +113,7 @@ def test_bad_recipe_file_exits_2(tmp_path, capsys):
 
 
 def test_info_reads_a_csv_written_by_a_separate_program(tmp_path, capsys):
-    # Written with the csv module alone, following DESIGN §3, with no sidecar metadata.
+    # Written with the csv module alone, following docs/guide/data.rst, with no sidecar metadata.
     import csv
 
     n = 2

@@ -1,4 +1,4 @@
-"""fit / evaluate / calibrate / benchmark from the command line (DESIGN §10 JSON shapes)."""
+"""fit / evaluate / calibrate / benchmark from the command line (docs/cli.rst JSON shapes)."""
 
 import json
 
@@ -125,9 +125,9 @@ def test_benchmark_table2_json(tmp_path, capsys):
         (["benchmark", "table9"], "unknown benchmark"),
         (["benchmark", "table1", "--preset", "huge"], "unknown preset"),
         (["calibrate", "--model", "capstan-simple", "--out", "c"], "at least one recording"),
-        (["benchmark", "table1", "--out", "page.html"], "only the regimes and table3 benchmarks write a page"),
+        (["benchmark", "table1", "--out", "page.html"], "--out: the table1 benchmark writes no page"),
         (["benchmark", "table3", "--out", "page.txt"], "the page is an HTML file"),
-        (["benchmark", "table3", "--repeats", "0"], "--repeats must be at least 1"),
+        (["benchmark", "table3", "--repeats", "0"], "--repeats: must be at least 1"),
     ],
 )
 def test_model_commands_bad_input_exit_2(tmp_path, monkeypatch, capsys, argv, needle):

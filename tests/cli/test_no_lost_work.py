@@ -62,7 +62,7 @@ def recording(tmp_path_factory):
         (["fit", "pg-chtc", "--data", "{rec}", "--out", "{blocker}/m"], "tendon_id.zoo.make", "is a file"),
         (["fit", "capstan-simple", "--data", "{rec}", "--out", "{blocker}"], "tendon_id.zoo.make", "not a folder"),
         (["calibrate", "--data", "{rec}", "--posterior", "--out", "{blocker}/c"],
-         "tendon_id.calibration_report.run_calibration", "is a file"),
+         "tendon_id.calibration.run.run_calibration", "is a file"),
         (["identifiability", "--data", "{rec}", "--out", "{blocker}/r.html"],
          "tendon_id.identifiability.analyse", "is a file"),
         (["identifiability", "--data", "{rec}", "--out", "r.html", "--json", "{blocker}/r.json"],
@@ -73,15 +73,15 @@ def recording(tmp_path_factory):
          "tendon_id.identifiability.analyse", "at least two trajectories"),
         (["diagnose", "--data", "{rec}", "--base", "capstan-simple", "--out", "{blocker}/d.html"],
          "tendon_id.diagnosis.diagnose", "is a file"),
-        (["benchmark", "table2", "--json", "{blocker}/t.json"], "tendon_id.benchmarks.registry.run_benchmark",
+        (["benchmark", "table2", "--json", "{blocker}/t.json"], "tendon_id.benchmarks.registry.Benchmark.__call__",
          "is a file"),
-        (["benchmark", "table2", "--json", "t.txt"], "tendon_id.benchmarks.registry.run_benchmark",
+        (["benchmark", "table2", "--json", "t.txt"], "tendon_id.benchmarks.registry.Benchmark.__call__",
          "must end in .json"),
-        (["benchmark", "regimes", "--out", "{blocker}/p.html"], "tendon_id.benchmarks.registry.run_benchmark",
+        (["benchmark", "regimes", "--out", "{blocker}/p.html"], "tendon_id.benchmarks.registry.Benchmark.__call__",
          "is a file"),
-        (["benchmark", "sweep", "--backend", "no-such-backend"], "tendon_id.benchmarks.registry.run_benchmark",
+        (["benchmark", "sweep", "--backend", "no-such-backend"], "tendon_id.benchmarks.registry.Benchmark.__call__",
          "joblib backend"),
-        (["benchmark", "table1", "--recipe", "no-such-recipe"], "tendon_id.benchmarks.registry.run_benchmark",
+        (["benchmark", "table1", "--recipe", "no-such-recipe"], "tendon_id.benchmarks.registry.Benchmark.__call__",
          "no-such-recipe"),
         (["demo", "--out", "{blocker}/demo"], "tendon_id.demo.run_demo", "is a file"),
         (["simulate", "--out", "{blocker}/x.parquet"], "tendon_id.sim.simulate", "is a file"),
@@ -139,7 +139,7 @@ def _assert_interrupted(code, err, *needles):
 
 
 def test_ctrl_c_in_a_benchmark_writes_nothing_and_says_which_row(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr("tendon_id.benchmarks.registry.run_benchmark", _interrupt_at(4, "table2", "row"))
+    monkeypatch.setattr("tendon_id.benchmarks.registry.Benchmark.__call__", _interrupt_at(4, "table2", "row"))
     code, _, err = run(capsys, "benchmark", "table2", "--json", str(tmp_path / "t2.json"))
     _assert_interrupted(code, err, "benchmark table2, table2 row 4 of 9", "nothing written")
     assert _files(tmp_path) == []
@@ -195,7 +195,7 @@ def test_a_ctrl_c_while_the_model_is_written_is_held_until_both_files_are_whole(
 
 
 def test_ctrl_c_in_the_posterior_keeps_the_calibration_and_names_it(recording, tmp_path, monkeypatch, capsys):
-    import tendon_id.calibration_report as C
+    import tendon_id.calibration.run as C
 
     def sampler(*_args, **_kwargs):
         for i in progress_bar(range(20), desc="posterior", unit="chunk", enable=False):

@@ -6,11 +6,11 @@ import inspect
 import numpy as np
 import pytest
 
+from tendon_id.benchmarks.oracle import oracle_blocks
 from tendon_id.datasets import load_recipe
-from tendon_id.diagnosis import oracle_blocks
 from tendon_id.sim import Effects, Sensors, simulate
 from tendon_id.sim.effects import EFFECT_NAMES, EFFECT_OPTIONS
-from tendon_id.zoo import load_model
+from tendon_id.zoo import load
 from tendon_id.zoo.blocks import BLOCK_TYPES, EFFECT_BLOCKS, STAGES, Block, GuideWear, as_block, block_from_dict
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
@@ -118,6 +118,6 @@ def test_guide_wear_round_trips_and_localises(tmp_path):
     assert 6 in found.guides
     fitted = base.with_blocks(GuideWear(guides=(6,)), "sensor_bias").fit(rec)
     fitted.save(tmp_path / "m")
-    again = load_model(tmp_path / "m")
+    again = load(tmp_path / "m")
     assert again.block_objects == fitted.block_objects
     np.testing.assert_array_equal(again.predict_terminal(rec), fitted.predict_terminal(rec))

@@ -210,8 +210,7 @@ def test_verdict_rules_by_hand():
 
 def test_noise_floor_of_a_ratio_model_is_the_propagated_noise():
     """A smooth capstan passes actuator noise through its ratio: floor^2 = sigma^2 (1 + mean ratio^2)."""
-    from tendon_id.diagnosis.splits import MeasurementNoise
-    from tendon_id.diagnosis.stats import noise_floor
+    from tendon_id.zoo.snake.diagnosis import MeasurementNoise, noise_floor
 
     rec = _data((), 5, 600)
     model = zoo.make("capstan-simple").fit(rec)

@@ -6,16 +6,17 @@ import numpy as np
 import pytest
 
 from tendon_id.benchmarks.diagnosis import benchmark_cases
+from tendon_id.benchmarks.oracle import oracle_block, oracle_blocks
 from tendon_id.benchmarks.withheld import LIBRARY, OUT_OF_LIBRARY, Case, case_recipe
 from tendon_id.datasets import load_recipe
-from tendon_id.diagnosis import diagnose, oracle_block, oracle_blocks
-from tendon_id.diagnosis.refit import refit
+from tendon_id.diagnosis import diagnose
 from tendon_id.errors import ConfigError
 from tendon_id.sim import Effects, Sensors, simulate
 from tendon_id.sim.effects import BENCH_EDGE_WIDTH
 from tendon_id.zoo.blocks import EFFECT_BLOCKS, SmoothEdge, as_block, block_from_dict
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
+from tendon_id.zoo.snake.refit import refit
 
 RECIPE = load_recipe("snake12-noise-only")
 

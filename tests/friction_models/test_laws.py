@@ -23,7 +23,7 @@ ALPHA = np.linspace(0.0, np.pi, 721)
 @settings(max_examples=300, deadline=None)
 @given(A=coef, B=coef)
 def test_affine_cosine_is_nonnegative_on_0_pi_iff_B_ge_abs_A(A, B):
-    # DESIGN §7: mu(alpha) >= 0 on [0, pi]  <=>  B >= |A| (cos spans [-1, 1] there).
+    # docs/guide/calibration.rst: mu(alpha) >= 0 on [0, pi]  <=>  B >= |A| (cos spans [-1, 1] there).
     assume(abs(B - abs(A)) > 1e-9)  # away from the edge, where rounding decides
     nonneg = bool(np.all(affine_cosine_mu(ALPHA, A, B) >= 0.0))
     assert nonneg == (B >= abs(A))

@@ -26,7 +26,8 @@ import pandas as pd
 from hypothesis import strategies as st
 
 from tendon_id.data import Recording
-from tendon_id.data.schema import META_KEY, TENSION_RE, THETA_RE
+from tendon_id.data.io import META_KEY
+from tendon_id.data.schema import TENSION_RE, THETA_RE
 
 FRAMES_PER_TRAJECTORY = 12
 

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from tendon_id import zoo
+from tendon_id.calibration.law_layout import LawLayout
 from tendon_id.cli import main
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
@@ -16,7 +17,6 @@ from tendon_id.identifiability import IdentifiabilityProblem, StudySettings, ana
 from tendon_id.identifiability.learned import learned_comparison
 from tendon_id.identifiability.profile import THRESHOLD_95, profile
 from tendon_id.identifiability.sampler import hit_and_run, split_rhat
-from tendon_id.law_layout import LawLayout
 from tendon_id.report.identifiability import write_report
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
@@ -129,7 +129,7 @@ def test_settings_validate_themselves():
 
 
 def test_terminal_only_data_leave_the_per_guide_law_rank_deficient_and_the_tied_law_full_rank(study):
-    js = study.to_json()
+    js = study.to_dict()
     assert js["tied"]["rank"] == js["tied"]["n_params"] == 6
     assert js["tied"]["condition_number"] > 1e3  # sloppy, but full rank
     per = js["per_guide"]
@@ -142,7 +142,7 @@ def test_terminal_only_data_leave_the_per_guide_law_rank_deficient_and_the_tied_
 
 def test_a_and_b_are_sloppy_while_their_sum_is_tight(study):
     tied = study.studies["tied"]
-    post = study.to_json()["tied"]["posterior"]
+    post = study.to_dict()["tied"]["posterior"]
     for i in range(3):
         assert tied.correlation(i)[0, 1] < -0.95
         assert post[f"mu0_t{i + 1}"]["sd"] < 0.1 * post[f"A_t{i + 1}"]["sd"]
@@ -150,7 +150,7 @@ def test_a_and_b_are_sloppy_while_their_sum_is_tight(study):
 
 
 def test_the_exact_sampler_and_emcee_agree_on_the_tied_posterior(study):
-    post = study.to_json()["tied"]["posterior"]
+    post = study.to_dict()["tied"]["posterior"]
     em = study.emcee["parameters"]
     for i in range(1, 4):
         assert post[f"A_t{i}"]["sd"] == pytest.approx(em[f"A_{i}"]["sd"], rel=0.35)
@@ -158,14 +158,14 @@ def test_the_exact_sampler_and_emcee_agree_on_the_tied_posterior(study):
 
 
 def test_without_unmodelled_effects_the_tied_band_covers_the_truth_and_the_per_guide_band_is_wider(study):
-    b = study.to_json()["bands"]
+    b = study.to_dict()["bands"]
     assert not study.misspecification["misspecified"]
     assert b["truth_coverage_min_joint"] >= 0.9
     assert b["per_guide_width_mean"] > b["tied_width_mean"]
 
 
 def test_the_suggested_joint_narrows_the_band_more_than_the_median_alternative(study):
-    adv = study.to_json()["advice"]
+    adv = study.to_dict()["advice"]
     widths = {c["joint"]: c["band_width_mean"] for c in adv["check"]}
     chosen = widths.pop(adv["instrument_joint"])
     assert chosen < np.median(list(widths.values()))
@@ -180,7 +180,7 @@ def test_intermediate_truth_is_never_used_to_fit(noise_only):
         frame[c] = rng.permutation(frame[c].to_numpy())
     scrambled = type(noise_only)(frame, noise_only.meta)
     quick = StudySettings(n_chains=16, n_steps=60, thin=5, band_frames=200, emcee=False, check_advice=False)
-    a, b = analyse(noise_only, quick).to_json(), analyse(scrambled, quick).to_json()
+    a, b = analyse(noise_only, quick).to_dict(), analyse(scrambled, quick).to_dict()
     for key in ("tied", "per_guide", "advice"):
         assert json.dumps(a[key], default=str) == json.dumps(b[key], default=str)
     assert a["bands"]["tied_width_mean"] == b["bands"]["tied_width_mean"]
@@ -190,7 +190,7 @@ def test_intermediate_truth_is_never_used_to_fit(noise_only):
 def test_a_misspecified_model_is_reported_as_such():
     rec = simulate(load_recipe("snake12-paper"), "terminal-only", frames=3000, seed=1).recording
     quick = StudySettings(n_chains=16, n_steps=60, thin=5, band_frames=200, emcee=False, check_advice=False)
-    js = analyse(rec, quick).to_json()
+    js = analyse(rec, quick).to_dict()
     assert js["misspecification"]["misspecified"]
     assert 0.0 <= js["bands"]["truth_coverage"] <= 1.0
 
@@ -247,7 +247,7 @@ def test_the_learned_comparison_reports_error_and_seed_spread_for_both_tyings():
 def test_data_without_truth_gets_a_report_with_no_coverage_and_no_check(tmp_path, noise_only):
     quick = StudySettings(n_chains=16, n_steps=60, thin=5, band_frames=200, emcee=False)
     result = analyse(noise_only.fitting_view(), quick)
-    js = result.to_json()
+    js = result.to_dict()
     assert js["bands"]["truth_coverage"] is None and js["advice"]["check"] is None
     page = write_report(result, tmp_path / "r.html", tmp_path / "r.json").read_text()
     assert page.count('src="data:image/png;base64,') == 7 and "no intermediate truth" not in page.split("<figure>")[0]

@@ -1,4 +1,4 @@
-"""Physics invariants of the simulator (DESIGN §5; issue acceptance)."""
+"""Physics invariants of the simulator (docs/guide/simulator.rst; issue acceptance)."""
 
 import numpy as np
 import pytest
@@ -177,7 +177,7 @@ def _three_module_scan():
 def test_motion_driven_slip_follows_the_tendon_through_the_guides(driver):
     """With ``driver="motion"`` a tendon drawn through its guides by distal joint motion sits on
     the slip edge of its direction; with constant actuator tension the tension-driven play
-    operator keeps the output it started with (DESIGN §5)."""
+    operator keeps the output it started with (docs/guide/simulator.rst)."""
     from tendon_id.sim.effects import Effects
     from tendon_id.sim.transmission import FrictionLaw, transmit
 

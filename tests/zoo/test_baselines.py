@@ -12,7 +12,7 @@ from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.sim import simulate
-from tendon_id.zoo.testing import scrambled_truth
+from tendon_id.zoo.snake.contract import scrambled_truth
 
 
 @pytest.fixture(scope="module")

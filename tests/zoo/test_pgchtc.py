@@ -11,7 +11,7 @@ from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.sim import simulate
-from tendon_id.zoo.testing import scrambled_truth
+from tendon_id.zoo.snake.contract import scrambled_truth
 
 
 @pytest.fixture(scope="module")
@@ -99,7 +99,7 @@ def test_float16_streaming_stays_near_batch(fitted, data):
     assert 1e-6 < rel < 2e-2
     with pytest.raises(ConfigError, match="native engine"):
         fitted.streamer("torch", weights="float16")
-    with pytest.raises(ConfigError, match="weights must be"):
+    with pytest.raises(ConfigError, match="unknown weight format"):
         fitted.streamer(weights="bf16")
 
 

@@ -8,12 +8,12 @@ import pytest
 from scipy.optimize import lsq_linear
 
 from tendon_id import zoo
-from tendon_id.calibration import linear_design
+from tendon_id.calibration.law import linear_design
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
-from tendon_id.zoo.testing import scrambled_truth
+from tendon_id.zoo.snake.contract import scrambled_truth
 
 ANALYTIC = ["proximal", "capstan-simple", "capstan-contact", "capstan-nonsmooth", "capstan-const-mu"]
 

@@ -1,21 +1,23 @@
 """Effect blocks: the pieces an analytic transmission model is composed of.
 
 See :mod:`tendon_id.zoo.blocks.base` for the stages and their hooks.  Every block
-registers itself by name in :data:`BLOCK_TYPES`; :data:`EFFECT_BLOCKS` maps each
-simulator effect (DESIGN §5) to the block that models it, the candidates of the
-sim-to-real diagnosis (:mod:`tendon_id.diagnosis`).
+registers itself in the snake chain's registry :data:`BLOCKS`: by name
+(:data:`BLOCK_TYPES`) and by the simulator effect it models (:data:`EFFECT_BLOCKS`,
+:doc:`/guide/simulator`), the candidates of the sim-to-real diagnosis (:mod:`tendon_id.diagnosis`).
 """
 
 from __future__ import annotations
 
+from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
-from tendon_id.zoo.blocks.base import BLOCK_TYPES, EFFECT_BLOCKS, STAGES, Block, Passage
+from tendon_id.zoo.blocks.base import BLOCK_TYPES, BLOCKS, EFFECT_BLOCKS, STAGES, Block, HookContext
 from tendon_id.zoo.blocks.exponent import ContactGate, GuideWear, VelocityFriction
 from tendon_id.zoo.blocks.output import SensorBias, ViscoelasticLag
 from tendon_id.zoo.blocks.slip import BendingStiffness, Hysteresis, SmoothEdge
 from tendon_id.zoo.blocks.wrap import PerTendonWrap
 
 __all__ = [
+    "BLOCKS",
     "BLOCK_TYPES",
     "EFFECT_BLOCKS",
     "STAGES",
@@ -23,8 +25,8 @@ __all__ = [
     "Block",
     "ContactGate",
     "GuideWear",
+    "HookContext",
     "Hysteresis",
-    "Passage",
     "PerTendonWrap",
     "SensorBias",
     "SmoothEdge",
@@ -32,15 +34,14 @@ __all__ = [
     "ViscoelasticLag",
     "as_block",
     "block_from_dict",
+    "compose",
 ]
 
 
 def block_from_dict(d: dict) -> Block:
     """Rebuild a block from :meth:`Block.to_dict`."""
     d = dict(d)
-    name = d.pop("block", None)
-    if name not in BLOCK_TYPES:
-        raise ConfigError(f"unknown block {name!r}; known blocks: {', '.join(BLOCK_TYPES)}")
+    name = check_choice("block", d.pop("block", None), BLOCK_TYPES)
     cls = BLOCK_TYPES[name]
     from_dict = getattr(cls, "from_dict", None)
     try:
@@ -54,12 +55,39 @@ def as_block(b: Block | str | dict) -> Block:
     if isinstance(b, Block):
         return b
     if isinstance(b, str):
-        cls = BLOCK_TYPES.get(b) or EFFECT_BLOCKS.get(b)
-        if cls is None:
-            raise ConfigError(
-                f"unknown block {b!r}; known blocks: {', '.join(BLOCK_TYPES)} (or effects: {', '.join(EFFECT_BLOCKS)})"
-            )
-        return cls()
+        return BLOCKS.lookup(b)()
     if isinstance(b, dict):
         return block_from_dict(b)
     raise ConfigError(f"a block must be a Block, a block name or a dict, got {b!r}")
+
+
+def compose(blocks) -> tuple[Block, ...]:
+    """The blocks of one model (blocks, names or dicts), checked to compose.
+
+    A block needs the blocks of the effects it refines; a model has at most one propagation block
+    (hysteresis) and one that refines it, at most one wrap block, and each block once.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``blocks``, for a composition that does not hold.
+    """
+    out = tuple(as_block(b) for b in blocks)
+    effects = {b.effect for b in out}
+    for b in out:
+        missing = [r for r in b.requires if r not in effects]
+        if missing:
+            raise ConfigError(
+                f"the {b.name} block refines {', '.join(missing)}: add that effect's block too", param="blocks"
+            )
+    propagate = [b for b in out if b.stage == "propagate"]
+    if sum(not b.requires for b in propagate) > 1 or sum(bool(b.requires) for b in propagate) > 1:
+        raise ConfigError(
+            "a model can have at most one propagation block (hysteresis), and one that refines it", param="blocks"
+        )
+    if sum(b.stage == "wrap" for b in out) > 1:
+        raise ConfigError("a model can have at most one wrap block", param="blocks")
+    names = [b.name for b in out]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"each block may appear once, got {names}", param="blocks")
+    return out

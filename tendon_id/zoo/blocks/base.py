@@ -3,7 +3,7 @@
 A capstan model propagates ``ln T`` of each tendon through the guides, proximal to
 distal (paper Algorithm 1 with analytic ratios).  A block acts at one stage, and
 every block of a stage has the same hook (``values`` holds the block's parameters,
-``{param: value}``; ``ctx`` is a :class:`Passage`):
+``{param: value}``; ``ctx`` is a :class:`HookContext`):
 
 ==================  =========================================  ==============================
 stage               hook                                       what it changes
@@ -23,33 +23,38 @@ The ``wrap`` and ``exponent`` stages act on arrays over all guides, shape
 the backbone wrap); the three per-guide stages see one guide, ``ctx.guide``, and
 arrays of shape ``(T, S_g, m)`` for the sets that pass it.
 
-Each block declares the simulator effect it models (:attr:`Block.effect`, DESIGN §5),
+Each block declares the simulator effect it models (:attr:`Block.effect`, :doc:`/guide/simulator`),
 its free parameters with bounds and neutral initial values (a model with the block
 added starts from its base model's fit), and a probe: a typical magnitude of each
 parameter, from which the sim-to-real diagnosis builds the block's signature
 regressor (:meth:`Block.signature`).  Subclasses that set ``name`` register
-themselves in :data:`BLOCK_TYPES`.
+themselves in the snake chain's registry, :data:`BLOCKS` (the declarations every family's
+blocks share are :class:`~tendon_id.family.blocks.EffectBlock`'s).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.family.blocks import BlockRegistry, EffectBlock
+
 STAGES = ("wrap", "exponent", "edges", "propagate", "guide_output", "sensor")
 
-#: Every block class by name (filled by :meth:`Block.__init_subclass__`).
-BLOCK_TYPES: dict[str, type[Block]] = {}
-#: The block class that models each simulator effect (DESIGN §5 names).
-EFFECT_BLOCKS: dict[str, type[Block]] = {}
+#: The snake chain's blocks, filled as each block class is defined.
+BLOCKS = BlockRegistry("snake")
+#: Every block class by name.
+BLOCK_TYPES: dict[str, type[Block]] = BLOCKS.by_name
+#: The block class that models each simulator effect (docs/guide/simulator.rst names).
+EFFECT_BLOCKS: dict[str, type[Block]] = BLOCKS.by_effect
 
 
 @dataclass(frozen=True)
-class Passage:
-    """What a block's hook sees besides the array it transforms.
+class HookContext:
+    """What a block's hook sees besides the array it transforms: the data, and which sets and guide.
 
     Attributes
     ----------
@@ -72,7 +77,7 @@ class Passage:
     guide: int | None = None
     active: NDArray[np.bool_] | None = None
 
-    def at_guide(self, guide: int, active: NDArray[np.bool_]) -> Passage:
+    def at_guide(self, guide: int, active: NDArray[np.bool_]) -> HookContext:
         return replace(self, guide=guide, active=active)
 
     @property
@@ -83,20 +88,20 @@ class Passage:
 
 
 @dataclass(frozen=True)
-class Block:
-    """Base of the effect blocks (see the module docstring).
+class Block(EffectBlock):
+    """Base of the snake chain's effect blocks (see the module docstring).
 
     Attributes
     ----------
     name : str
         Registry name (what a saved model stores).
     effect : str or None
-        The simulator effect it models (DESIGN §5), or None.
+        The simulator effect it models (:doc:`/guide/simulator`), or None.
     stage : str
         One of :data:`STAGES`.
     per_tendon : bool
         The block's factor differs by set or tendon (it cannot enter the linear design
-        of :class:`~tendon_id.problem.LawProblem`).
+        of :class:`~tendon_id.calibration.problem.LawProblem`).
     param_names : tuple of str
         Free parameters (calibrated with the law unless ``fixed``).
     bounds : dict
@@ -113,25 +118,14 @@ class Block:
         in place of the block it refines.
     """
 
-    name: ClassVar[str] = "block"
-    effect: ClassVar[str | None] = None
+    registry: ClassVar[BlockRegistry] = BLOCKS
+    stages: ClassVar[tuple[str, ...]] = STAGES
     stage: ClassVar[str] = "exponent"
     per_tendon: ClassVar[bool] = False
-    regressor: ClassVar[str] = ""
-    requires: ClassVar[tuple[str, ...]] = ()
     param_names: tuple[str, ...] = ()
     bounds: dict = field(default_factory=dict)
     probe: dict = field(default_factory=dict, compare=False, repr=False)
     fixed: bool = False
-
-    def __init_subclass__(cls, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if "name" in cls.__dict__:
-            if cls.stage not in STAGES:
-                raise TypeError(f"block {cls.name!r} has unknown stage {cls.stage!r}")
-            BLOCK_TYPES[cls.name] = cls
-            if cls.effect is not None:
-                EFFECT_BLOCKS[cls.effect] = cls
 
     def propagate_series(
         self, log_in: NDArray, phi: NDArray, n_pass: NDArray, ctx, values: dict, keep_chain: bool
@@ -149,6 +143,15 @@ class Block:
     def initial(self) -> dict[str, float]:
         """Starting values of the block's parameters."""
         return {p: float(getattr(self, p)) for p in self.param_names}
+
+    def neutral(self) -> dict[str, float]:
+        """The parameters' values that switch the effect off: the class's defaults."""
+        defaults = {f.name: f.default for f in fields(self)}
+        return {p: float(defaults[p]) for p in self.param_names}
+
+    def location(self) -> str:
+        """Where the effect sits, for a block that says (a worn guide); else ``""``."""
+        return ""
 
     def settings(self) -> dict:
         """Structural settings that are not fitted parameters (saved with the block)."""

@@ -33,7 +33,7 @@ class ContactGate(Block):
 class VelocityFriction(Block):
     """Viscous friction: ``mu(v) = mu (1 + viscous * v)`` with the tendon's sliding speed ``v`` [m/s].
 
-    The simulator's ``velocity_friction`` (DESIGN §5) without its Stribeck dip:
+    The simulator's ``velocity_friction`` (:doc:`/guide/simulator`) without its Stribeck dip:
     ``viscous = 1 / v_ref``.  The speed is the rate at which the tendon's path beyond
     the guide changes length (:func:`tendon_id.geometry.sliding_speed`).
 
@@ -64,7 +64,7 @@ class VelocityFriction(Block):
 
 @dataclass(frozen=True)
 class GuideWear(Block):
-    """Friction multipliers ``1 + wear_k`` at chosen guides (DESIGN §5 ``guide_wear``).
+    """Friction multipliers ``1 + wear_k`` at chosen guides (:doc:`/guide/simulator` ``guide_wear``).
 
     Parameters
     ----------
@@ -97,6 +97,12 @@ class GuideWear(Block):
 
     def initial(self) -> dict[str, float]:
         return {f"wear_{g}": e for g, e in zip(self.guides, self.excess)}
+
+    def neutral(self) -> dict[str, float]:
+        return {f"wear_{g}": 0.0 for g in self.guides}
+
+    def location(self) -> str:
+        return f"guide{'s' if len(self.guides) > 1 else ''} {', '.join(map(str, self.guides))}" if self.guides else ""
 
     def settings(self) -> dict:
         return {"guides": list(self.guides)}

@@ -13,7 +13,7 @@ from tendon_id.zoo.blocks.base import Block
 
 @dataclass(frozen=True)
 class ViscoelasticLag(Block):
-    """Zener lag of the tension leaving each guide (DESIGN §5 ``viscoelastic``).
+    """Zener lag of the tension leaving each guide (:doc:`/guide/simulator` ``viscoelastic``).
 
     Parameters
     ----------
@@ -45,7 +45,7 @@ class ViscoelasticLag(Block):
 
 @dataclass(frozen=True)
 class SensorBias(Block):
-    """Terminal load-cell bias ``(1 + gain) T + offset + drift * clock`` (DESIGN §5 ``sensor_bias``).
+    """Terminal load-cell bias ``(1 + gain) T + offset + drift * clock`` (:doc:`/guide/simulator` ``sensor_bias``).
 
     Parameters
     ----------

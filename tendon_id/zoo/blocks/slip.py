@@ -89,7 +89,7 @@ class SmoothEdge(Block):
 
 @dataclass(frozen=True)
 class BendingStiffness(Block):
-    """A tension-independent loss ``dT_b * alpha`` [N] per guide (DESIGN §5 ``bending_stiffness``).
+    """A tension-independent loss ``dT_b * alpha`` [N] per guide (:doc:`/guide/simulator` ``bending_stiffness``).
 
     The loss widens the guide's slip band (:func:`friction_models.edges_with_loss`).
 

@@ -13,7 +13,7 @@ from tendon_id.zoo.blocks.base import Block
 
 @dataclass(frozen=True)
 class PerTendonWrap(Block):
-    """Each tendon's own wrap instead of the backbone angle (DESIGN §4–5 ``per_tendon_wrap``).
+    """Each tendon's own wrap instead of the backbone angle (:doc:`/guide/geometry`–5 ``per_tendon_wrap``).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Single-passage models (a bench): ``passage-capstan`` and its effect blocks (DESIGN §14).
+"""The bench passage family's models (:mod:`tendon_id.zoo.passage.family`): ``passage-capstan`` and its effect blocks.
 
 >>> from tendon_id import zoo
 >>> model = zoo.make("passage-capstan", blocks=["stick_slip"])   # doctest: +SKIP

@@ -1,4 +1,4 @@
-"""The passage's effect blocks: what the capstan passage leaves out, one block per effect (DESIGN §14).
+"""The passage's effect blocks: what the capstan passage leaves out, one block per effect (:doc:`/guide/data`).
 
 A passage model predicts one side from the other through two slip edges, the forward-slip and
 the reverse-slip value of the predicted side (:mod:`friction_models.passage`). Blocks act at one
@@ -30,38 +30,38 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.errors import ConfigError
+from tendon_id.family.blocks import BlockRegistry, EffectBlock
+
 PASSAGE_STAGES = ("load", "state", "edge")
-#: Every passage block class by effect name.
-PASSAGE_BLOCKS: dict[str, type[PassageBlock]] = {}
+#: The bench passage's blocks, filled as each block class is defined.
+BLOCKS = BlockRegistry("passage")
+#: Every passage block class by effect name (a passage block's name is its effect's).
+PASSAGE_BLOCKS: dict[str, type[PassageBlock]] = BLOCKS.by_effect
 
 
 @dataclass(frozen=True)
-class PassageBlock:
-    """Base of the passage blocks.
+class PassageBlock(EffectBlock):
+    """Base of the passage blocks (the declarations are :class:`~tendon_id.family.blocks.EffectBlock`'s).
 
-    Class attributes: ``effect`` (its name), ``stage``, ``param_names``, ``units`` (per
-    parameter, with ``Q`` for the passage's quantity: N or N m), ``regressor`` (what the effect
-    leaves in a residual, in words), ``needs`` (optional signals it reads) and ``requires`` (blocks
-    it refines).
+    Class attributes besides: ``units`` (per parameter, with ``Q`` for the passage's quantity:
+    N or N m). Bounds, starts and probes depend on the data's scales (``scale``: ``signal``
+    [Q], ``input`` [Q], ``travel``, ``angle`` [rad], ``speed`` [rad/s]).
     """
 
-    effect: ClassVar[str] = ""
+    registry: ClassVar[BlockRegistry] = BLOCKS
+    stages: ClassVar[tuple[str, ...]] = PASSAGE_STAGES
     stage: ClassVar[str] = "load"
     param_names: ClassVar[tuple[str, ...]] = ()
     units: ClassVar[dict[str, str]] = {}
-    regressor: ClassVar[str] = ""
-    needs: ClassVar[tuple[str, ...]] = ()
-    requires: ClassVar[tuple[str, ...]] = ()
 
-    def __init_subclass__(cls, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if cls.effect:
-            assert cls.stage in PASSAGE_STAGES, cls.stage
-            PASSAGE_BLOCKS[cls.effect] = cls
+    def to_dict(self) -> dict:
+        """What the diagnosis reports of the block: its effect."""
+        return {"effect": self.effect}
 
-    @property
-    def name(self) -> str:
-        return self.effect
+    def location(self) -> str:
+        """Where the effect sits: a passage's blocks act on the whole passage."""
+        return ""
 
     def neutral(self) -> dict[str, float]:
         """Parameter values that switch the effect off."""
@@ -81,11 +81,8 @@ class PassageBlock:
 
     def check(self, inputs) -> None:
         """Raise ConfigError where the data lacks a signal the block reads."""
-        from tendon_id.errors import ConfigError
-
-        for need in self.needs:
-            if getattr(inputs, need) is None:
-                raise ConfigError(f"the {self.effect} block needs the {need.replace('_', '-')} column in the data")
+        for need in self.missing(inputs):
+            raise ConfigError(f"the {self.effect} block needs the {need.replace('_', '-')} column in the data")
 
     def load(self, inputs, values: dict) -> NDArray:  # pragma: no cover - the load blocks override it
         raise NotImplementedError
@@ -102,6 +99,7 @@ class StickSlip(PassageBlock):
     free parameter.
     """
 
+    name: ClassVar[str] = "stick_slip"
     effect: ClassVar[str] = "stick_slip"
     stage: ClassVar[str] = "state"
     regressor: ClassVar[str] = "a residual that holds after each reversal (hysteresis)"
@@ -121,6 +119,7 @@ class SmoothEdge(PassageBlock):
     where this form lowers the error: the bench's edge is spread in the band, not in travel.)
     """
 
+    name: ClassVar[str] = "smooth_edge"
     effect: ClassVar[str] = "smooth_edge"
     stage: ClassVar[str] = "edge"
     param_names: ClassVar[tuple[str, ...]] = ("width",)
@@ -147,6 +146,7 @@ class PositionTorque(PassageBlock):
     wiring and a wrap that changes with the angle act so. ``k1`` [Q/rad], ``k2`` [Q/rad^2].
     """
 
+    name: ClassVar[str] = "position_torque"
     effect: ClassVar[str] = "position_torque"
     param_names: ClassVar[tuple[str, ...]] = ("k1", "k2")
     units: ClassVar[dict[str, str]] = {"k1": "Q/rad", "k2": "Q/rad^2"}
@@ -179,6 +179,7 @@ class VelocityFriction(PassageBlock):
     The same effect as the snake's ``velocity_friction``: a friction that grows with speed.
     """
 
+    name: ClassVar[str] = "velocity_friction"
     effect: ClassVar[str] = "velocity_friction"
     param_names: ClassVar[tuple[str, ...]] = ("c",)
     units: ClassVar[dict[str, str]] = {"c": "Q s/rad"}
@@ -205,6 +206,7 @@ class LoadCoulomb(PassageBlock):
     through a reversal. It opposes the motion, so ``f >= 0``.
     """
 
+    name: ClassVar[str] = "load_coulomb"
     effect: ClassVar[str] = "load_coulomb"
     param_names: ClassVar[tuple[str, ...]] = ("f",)
     units: ClassVar[dict[str, str]] = {"f": "Q"}
@@ -232,10 +234,6 @@ def scale_band(inputs) -> float:
     return inputs.memo("band", compute)
 
 
-def make_block(effect: str) -> PassageBlock:
-    """The block of ``effect`` (ConfigError naming the known ones otherwise)."""
-    from tendon_id.errors import ConfigError
-
-    if effect not in PASSAGE_BLOCKS:
-        raise ConfigError(f"unknown passage effect {effect!r}; known: {', '.join(PASSAGE_BLOCKS)}")
-    return PASSAGE_BLOCKS[effect]()
+def make_block(effect: str | PassageBlock) -> PassageBlock:
+    """The block of ``effect`` (ConfigError naming the known ones otherwise); a block is returned as it is."""
+    return effect if isinstance(effect, PassageBlock) else BLOCKS[effect]()

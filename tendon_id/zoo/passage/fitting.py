@@ -1,8 +1,10 @@
-"""Fitting a passage model: the law and the blocks' parameters in one bounded least-squares fit (DESIGN §7).
+"""Fitting a passage model: the law and the blocks' parameters in one bounded least-squares fit.
+
+See :doc:`/guide/calibration`.
 
 The loss is the sum of squared errors of the predicted side over the frames after each log's
 warm-up, minimised under the parameters' bounds with nlopt, as the snake's law is
-(:func:`tendon_id.optimize.minimize`): SLSQP (Kraft 1988) on the gradient ``2 J^T r``, with the
+(:func:`tendon_id.calibration.optimize.minimize`): SLSQP (Kraft 1988) on the gradient ``2 J^T r``, with the
 residual's Jacobian ``J`` from forward differences. The model is piecewise smooth in its
 parameters (the play operator switches edge at reversals, not as the parameters move), so the
 difference quotients are those of the smooth piece. Derivative-free COBYLA ran out of 600
@@ -20,14 +22,14 @@ over its range: the gain and the exponent of a taut pair trade off along a ridge
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.calibration.optimize import minimize
 from tendon_id.errors import ConfigError
+from tendon_id.family.fit import Fit
 from tendon_id.metrics import jacobian_correlation
-from tendon_id.optimize import minimize
 from tendon_id.zoo.passage.blocks import scale_band
 
 #: Relative forward-difference step of the Jacobian (the model is in float64; the play
@@ -37,58 +39,20 @@ FD_STEP = 1e-6
 XTOL_REL, FTOL_REL = 1e-6, 1e-10
 
 
-@dataclass
-class PassageFit:
-    """The result of :func:`calibrate_passage`.
-
-    Attributes
-    ----------
-    theta : dict
-        Fitted parameters ``{label: value}`` (the law's, then ``block:param``).
-    labels : list of str
-    lower, upper : ndarray
-        The bounds searched.
-    rmse : float
-        Training RMSE of the predicted side [N or N m].
-    n_obs : int
-        Frames in the loss.
-    status : str
-        nlopt's stop reason for the best start.
-    n_eval : int
-        Model evaluations over all starts (the gradients' included).
-    seconds : float
-    starts : list of float
-        The cost reached from each start.
-    corr : ndarray, shape (P, P), optional
-        Correlation of the parameters from the Jacobian at the solution (Gauss-Newton
-        covariance); near +-1 where the data cannot tell two apart.
-    """
-
-    theta: dict
-    labels: list
-    lower: NDArray
-    upper: NDArray
-    rmse: float
-    n_obs: int
-    status: str
-    n_eval: int
-    seconds: float
-    starts: list = field(default_factory=list)
-    corr: NDArray | None = None
-
-    def summary(self) -> dict:
-        return {
-            "rmse": self.rmse,
-            "n_obs": self.n_obs,
-            "status": self.status,
-            "n_eval": self.n_eval,
-            "seconds": self.seconds,
-            "bounds": {k: [float(a), float(b)] for k, a, b in zip(self.labels, self.lower, self.upper)},
-            # Rows and columns in the order of ``bounds``; None where a parameter does not act.
-            "correlation": None
-            if self.corr is None
-            else [[float(v) if np.isfinite(v) else None for v in row] for row in self.corr],
-        }
+def calibration_record(fit: Fit) -> dict:
+    """A passage model's ``calibration_``: the fit's loss, stop, bounds and parameter correlations."""
+    return {
+        "rmse": fit.rmse,
+        "n_obs": fit.n_obs,
+        "status": fit.status,
+        "n_eval": fit.n_eval,
+        "seconds": fit.seconds,
+        "bounds": {k: [float(a), float(b)] for k, a, b in zip(fit.labels, fit.lower, fit.upper)},
+        # Rows and columns in the order of ``bounds``; None where a parameter does not act.
+        "correlation": None
+        if fit.corr is None
+        else [[float(v) if np.isfinite(v) else None for v in row] for row in fit.corr],
+    }
 
 
 def data_scales(inputs) -> dict[str, float]:
@@ -151,7 +115,7 @@ def regression_start(inputs, phi: float) -> dict[str, float]:
     }
 
 
-def calibrate_passage(model, inputs, start: dict | None = None) -> PassageFit:
+def calibrate_passage(model, inputs, start: dict | None = None) -> Fit:
     """Fit ``model``'s law and block parameters on ``inputs`` (see the module docstring).
 
     Parameters
@@ -161,6 +125,12 @@ def calibrate_passage(model, inputs, start: dict | None = None) -> PassageFit:
     start : dict, optional
         A single start ``{label: value}`` (e.g. a base model's fit; missing labels start
         neutral); by default ``model.n_starts`` starts from the regression.
+
+    Returns
+    -------
+    Fit
+        Without a model (``Fit.model`` is None: the caller stores the parameters); ``sse`` is
+        the sum of squared errors of the predicted side [Q^2].
 
     Raises
     ------
@@ -222,20 +192,21 @@ def calibrate_passage(model, inputs, start: dict | None = None) -> PassageFit:
         costs.append(0.5 * out.f)
         if best is None or out.f < best.f:
             best = out
-    theta = dict(zip(labels, best.x.tolist()))
-    rmse = float(np.sqrt(best.f / keep.sum()))
-    return PassageFit(
-        theta,
-        labels,
-        lo,
-        hi,
-        rmse,
-        int(keep.sum()),
-        best.status,
-        n_eval,
-        time.perf_counter() - t0,
-        costs,
-        jacobian_correlation(jacobian(residual, best.x, lo, hi)[0]),
+    n_fit = n_eval  # the fit's evaluations, before the Jacobian that gives the correlations
+    return Fit(
+        model=None,
+        sse=float(best.f),
+        n_obs=int(keep.sum()),
+        labels=labels,
+        n_law=len(labels) - sum(len(b.param_names) for b in model.block_objects),
+        x=best.x,
+        lower=lo,
+        upper=hi,
+        corr=jacobian_correlation(jacobian(residual, best.x, lo, hi)[0]),
+        n_eval=n_fit,
+        seconds=time.perf_counter() - t0,
+        status=best.status,
+        starts=costs,
     )
 
 

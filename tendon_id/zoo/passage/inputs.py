@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -11,6 +12,7 @@ from numpy.typing import NDArray
 from friction_models import play_operator
 from tendon_id.data.passage import PassageRecording
 from tendon_id.errors import ConfigError
+from tendon_id.family.inputs import FrameInputs
 
 #: Window of the backward difference that gives the input speed [s] (an encoder count per
 #: frame is too coarse at 1 kHz; 20 ms averages it while lagging the motion by 10 ms).
@@ -31,8 +33,8 @@ def as_passages(data: PassageRecording | Sequence[PassageRecording]) -> list[Pas
 
 
 @dataclass(frozen=True, eq=False)
-class PassageInputs:
-    """The arrays of one or more passage recordings, stacked in time.
+class PassageInputs(FrameInputs):
+    """The arrays of one or more passage recordings, stacked in time: the bench passage's inputs.
 
     Attributes
     ----------
@@ -53,6 +55,16 @@ class PassageInputs:
     trajectory : ndarray of str, shape (T,)
     """
 
+    frame_fields: ClassVar[tuple[str, ...]] = (
+        "input",
+        "output",
+        "position",
+        "position_out",
+        "wrap",
+        "reset",
+        "trajectory",
+    )
+
     input: NDArray
     output: NDArray
     position: NDArray | None
@@ -62,7 +74,7 @@ class PassageInputs:
     dt: float
     quantity: str
     trajectory: NDArray
-    _memo: dict = field(default_factory=dict, repr=False, compare=False)
+    cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @classmethod
     def from_recordings(cls, data) -> PassageInputs:
@@ -87,60 +99,6 @@ class PassageInputs:
             quantity=recs[0].quantity,
             trajectory=np.concatenate([np.char.add(f"{k}/", r.trajectory_ids) for k, r in enumerate(recs)]),
         )
-
-    @classmethod
-    def concat(cls, parts: Sequence[PassageInputs]) -> PassageInputs:
-        """Inputs stacked in time (each part starts a trajectory)."""
-
-        def joined(name):
-            arrays = [getattr(p, name) for p in parts]
-            return None if any(a is None for a in arrays) else np.concatenate(arrays)
-
-        return cls(
-            **{f: joined(f) for f in ("input", "output", "position", "position_out", "wrap", "reset", "trajectory")},
-            dt=parts[0].dt,
-            quantity=parts[0].quantity,
-        )
-
-    def subset(self, mask: NDArray) -> PassageInputs:
-        """The frames of ``mask`` (whole trajectories), as new inputs."""
-
-        def cut(a):
-            return None if a is None else a[mask]
-
-        reset = self.reset[mask].copy()
-        if reset.size:
-            reset[0] = True
-        return PassageInputs(
-            input=self.input[mask],
-            output=self.output[mask],
-            position=cut(self.position),
-            position_out=cut(self.position_out),
-            wrap=cut(self.wrap),
-            reset=reset,
-            dt=self.dt,
-            quantity=self.quantity,
-            trajectory=self.trajectory[mask],
-        )
-
-    @property
-    def n_frames(self) -> int:
-        return int(self.input.shape[0])
-
-    def memo(self, key: str, compute):
-        if key not in self._memo:
-            self._memo[key] = compute()
-        return self._memo[key]
-
-    @property
-    def since_start(self) -> NDArray:
-        """Time since the trajectory's first frame [s], shape (T,)."""
-
-        return self.memo("since_start", lambda: (np.arange(self.n_frames) - self._first()) * self.dt)
-
-    def _first(self) -> NDArray:
-        """Index of each frame's trajectory start, shape (T,)."""
-        return self.memo("first", lambda: np.maximum.accumulate(np.where(self.reset, np.arange(self.n_frames), 0)))
 
     def travel(self) -> NDArray:
         """What the motion is measured in: the input position [rad], else the input signal."""
@@ -185,7 +143,7 @@ class PassageInputs:
         def compute():
             sigma = self.slip_state(band)
             moving = np.flatnonzero(sigma != 0)
-            first = self._first()
+            first = self.first_frame
             starts = np.flatnonzero(self.reset)
             at = np.searchsorted(moving, starts)
             idx = moving[np.minimum(at, max(moving.size - 1, 0))] if moving.size else starts
@@ -197,7 +155,7 @@ class PassageInputs:
     def _back(self) -> NDArray:
         """Index of the frame SPEED_WINDOW_S before each frame (not before its trajectory's start)."""
         n = max(int(round(SPEED_WINDOW_S / self.dt)), 1)
-        return np.maximum(np.arange(self.n_frames) - n, self._first())
+        return np.maximum(np.arange(self.n_frames) - n, self.first_frame)
 
     def speed(self) -> NDArray:
         """Input speed [rad/s] (or the input signal's rate), a backward difference over SPEED_WINDOW_S."""
@@ -206,7 +164,7 @@ class PassageInputs:
             x = self.travel()
             n = max(int(round(SPEED_WINDOW_S / self.dt)), 1)
             idx = np.arange(self.n_frames)
-            back = np.maximum(idx - n, self._first())
+            back = np.maximum(idx - n, self.first_frame)
             span = np.maximum(idx - back, 1) * self.dt
             return (x - x[back]) / span
 

@@ -1,4 +1,6 @@
-"""``passage-capstan``: one capstan passage on a bench, with the passage's effect blocks (DESIGN §6, §14).
+"""``passage-capstan``: one capstan passage on a bench, with the passage's effect blocks.
+
+See :doc:`/guide/zoo` and :doc:`/guide/data`.
 
 The base predicts the output side from the input side (``direction="forward"``, the default)
 through the capstan law of :mod:`friction_models.passage`: a single tendon
@@ -23,11 +25,14 @@ from numpy.typing import NDArray
 from friction_models.maxwell_slip import maxwell_slip_output
 from friction_models.passage import pair_input, pair_output, tendon_input, tendon_output
 from friction_models.play_operator import play_output
+from tendon_id.checks import check_choice
 from tendon_id.data.passage import PassageRecording
 from tendon_id.errors import ConfigError
+from tendon_id.family.registry import family_named
 from tendon_id.metrics import tendon_metrics
 from tendon_id.zoo.estimator import Estimator
 from tendon_id.zoo.passage.blocks import PASSAGE_BLOCKS, PassageBlock, make_block, scale_band
+from tendon_id.zoo.passage.fitting import calibrate_passage, calibration_record
 from tendon_id.zoo.passage.inputs import PassageInputs
 
 DIRECTIONS = ("forward", "inverse")
@@ -43,6 +48,7 @@ LAW_PARAMS = {
 class PassageModel(Estimator):
     """Base of the single-passage models: data checks, scoring (the estimator contract of the zoo)."""
 
+    family = family_named("passage")
     #: The data's quantity the model was fitted on (``torque`` or ``tension``).
     quantity_: str | None = None
 
@@ -115,17 +121,23 @@ class PassageCapstan(PassageModel):
         self.maxeval = maxeval
 
     # ---- structure -------------------------------------------------------------------
+    def check_settings(self) -> None:
+        for b in self.block_objects:
+            missing = [r for r in b.requires if r not in self.blocks]
+            if missing:
+                raise ConfigError(f"the {b.effect} block refines {', '.join(missing)}: add it too", param="blocks")
+
     @property
     def block_objects(self) -> list[PassageBlock]:
-        if self.direction not in DIRECTIONS:
-            raise ConfigError(f"direction must be one of {DIRECTIONS}, got {self.direction!r}")
+        check_choice("direction", self.direction, DIRECTIONS)
         out = [make_block(b) for b in self.blocks]
         if len({b.effect for b in out}) < len(out):
-            raise ConfigError(f"a block is named twice in {list(self.blocks)}")
+            raise ConfigError(f"a block is named twice in {list(self.blocks)}", param="blocks")
         return out
 
-    def with_blocks(self, *effects: str) -> PassageCapstan:
-        """An unfitted copy with ``effects`` added."""
+    def with_blocks(self, *blocks: str | PassageBlock) -> PassageCapstan:
+        """An unfitted copy with ``blocks`` (effect names or blocks) added."""
+        effects = tuple(make_block(b).effect for b in blocks)
         return type(self)(
             **{**self.get_params(), "blocks": self.blocks + tuple(e for e in effects if e not in self.blocks)}
         )
@@ -190,18 +202,14 @@ class PassageCapstan(PassageModel):
     # ---- estimator -------------------------------------------------------------------
     def fit(self, data: PassageRecording | Sequence[PassageRecording]) -> PassageCapstan:
         """Fit the law and the blocks' parameters (:mod:`~tendon_id.zoo.passage.fitting`); returns ``self``."""
-        from tendon_id.zoo.passage.fitting import calibrate_passage
-
+        self.check_settings()
         inputs = data if isinstance(data, PassageInputs) else PassageInputs.from_recordings(data)
         for b in self.block_objects:
             b.check(inputs)
-            missing = [r for r in b.requires if r not in self.blocks]
-            if missing:
-                raise ConfigError(f"the {b.effect} block refines {', '.join(missing)}: add it too")
-        result = calibrate_passage(self, inputs)
-        self.theta_ = dict(result.theta)
+        fit = calibrate_passage(self, inputs)
+        self.theta_ = fit.values
         self.quantity_ = inputs.quantity
-        self.calibration_ = result.summary()
+        self.calibration_ = calibration_record(fit)
         return self
 
     def predict(self, data) -> NDArray:

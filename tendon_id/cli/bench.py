@@ -1,0 +1,82 @@
+"""``tendon-id benchmark``: any benchmark of the registry, its options checked once before the work."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from tendon_id.atomic import check_writable, hold_interrupt, write_json_atomic
+from tendon_id.benchmarks.registry import BENCHMARKS, PRESETS, get_benchmark
+from tendon_id.checks import one_of
+from tendon_id.cli.app import app
+from tendon_id.cli.common import training_warnings
+from tendon_id.errors import ConfigError
+from tendon_id.progress import stage
+
+
+@app.command(
+    help="Reproduce a table of the paper on simulated data.\n\n\b\n"
+    + "\n".join(f"{name:9s} {b.summary}" for name, b in BENCHMARKS.items())
+)
+def benchmark(
+    name: str = typer.Argument(..., help=f"{one_of(BENCHMARKS)}."),
+    preset: str = typer.Option("fast", "--preset", help=f"{one_of(PRESETS)} (size of the learned models)."),
+    recipe: Optional[str] = typer.Option(None, "--recipe", help="Recipe (default: the benchmark's own)."),
+    seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the first data split (default 0)."),
+    repeats: Optional[int] = typer.Option(
+        None,
+        "--repeats",
+        help="Random splits (table1, table2) or closed-loop seeds (table3) to average over (default 5, 3, 3).",
+    ),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the result as JSON (see the CLI guide)."),
+    backend: Optional[str] = typer.Option(
+        None,
+        "--backend",
+        help="joblib backend of the jobs of sweep, diagnosis, regimes and table3 (loky, threading, dask, ray; "
+        "default loky).",
+    ),
+    n_jobs: Optional[int] = typer.Option(
+        None, "--jobs", help="Parallel jobs of sweep, diagnosis, regimes and table3 (joblib's n_jobs; -1: all cores)."
+    ),
+    points: Optional[int] = typer.Option(
+        None, "--points", help="sweep: grid values per parameter (log-spaced, operating point included; default 5)."
+    ),
+    quick: bool = typer.Option(False, "--quick", help="diagnosis: every effect once, at default magnitude."),
+    out: Optional[Path] = typer.Option(
+        None, "--out", help="The benchmark's page (HTML): regimes' heat map, table3's closed loop."
+    ),
+) -> None:
+    b = get_benchmark(name)
+    kwargs = b.arguments(
+        preset, recipe=recipe, seed=seed, repeats=repeats, backend=backend, n_jobs=n_jobs, points=points,
+        quick=quick or None,
+    )  # fmt: skip
+    if json_out is not None:
+        check_writable(json_out, "--json", suffixes=(".json",))
+    if out is not None:
+        if b.page is None:
+            raise ConfigError(f"the {name} benchmark writes no page", param="out")
+        if out.suffix.lower() not in (".html", ".htm"):
+            raise ConfigError(f"{out}: the page is an HTML file (.html)", param="out")
+        check_writable(out, "--out")
+    if recipe:
+        from tendon_id.datasets import load_recipe
+
+        load_recipe(recipe)
+    if "backend" in b.options:  # dask or ray must be installed and registered; n_jobs a non-zero integer
+        from tendon_id.benchmarks.jobs import job_runner
+
+        job_runner(backend or "loky", 1 if n_jobs is None else n_jobs)
+    from tendon_id.benchmarks.registry import format_table
+
+    with stage(f"benchmark {name}"), training_warnings():
+        result = b(**kwargs)
+    typer.echo(format_table(result))
+    with stage("writing the results"), hold_interrupt():
+        if json_out:
+            write_json_atomic(json_out, result)
+            typer.echo(f"wrote {json_out}")
+        if out is not None:
+            typer.echo(f"wrote {b.write_page(result, out)}")

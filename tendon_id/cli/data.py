@@ -1,0 +1,80 @@
+"""``tendon-id simulate``, ``info`` and ``demo``: recordings in, recordings out, and the demo on the default recipe."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from tendon_id.atomic import check_writable, hold_interrupt
+from tendon_id.checks import one_of
+from tendon_id.cli.app import app
+from tendon_id.cli.common import MAPPING_HELP, read_all, training_warnings
+from tendon_id.progress import stage
+from tendon_id.sim.effects import EFFECT_NAMES
+from tendon_id.sim.protocols import PROTOCOL_NAMES
+
+
+@app.command()
+def simulate(
+    recipe: str = typer.Option("snake12-paper", "--recipe", help="Bundled recipe name or a recipe .toml file."),
+    protocol: str = typer.Option("posterior-3", "--protocol", help=f"{one_of(PROTOCOL_NAMES)}."),
+    effects: Optional[str] = typer.Option(
+        None,
+        "--effects",
+        help=f"Comma-separated effects to switch on instead of the recipe's ({', '.join(EFFECT_NAMES)}), or 'none'.",
+    ),
+    seed: Optional[int] = typer.Option(
+        None, "--seed", help="Random seed (default: the recipe's). The same seed gives the same bytes."
+    ),
+    frames: Optional[int] = typer.Option(None, "--frames", help="Total frames (default: the recipe's)."),
+    out: Path = typer.Option(..., "--out", help="Output file, .parquet or .csv (with a .json sidecar)."),
+) -> None:
+    """Simulate one protocol of a recipe and write it as a recording."""
+    from tendon_id.datasets import load_recipe
+    from tendon_id.sim import simulate as run
+
+    check_writable(out, "--out", suffixes=(".parquet", ".csv"))
+    with stage("simulate"):
+        rec = run(load_recipe(recipe), protocol, seed=seed, effects=effects, frames=frames).recording
+    with stage("writing the recording"), hold_interrupt():  # a .csv and its .json sidecar together
+        path = rec.write(out)
+    typer.echo(f"wrote {path}: {rec.n_frames} frames, {len(rec.trajectories)} trajectories, {rec.n_modules} modules")
+
+
+@app.command()
+def info(
+    file: Path = typer.Argument(..., help="A recording (.parquet, or .csv with an optional .json sidecar)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
+) -> None:
+    """Summarise a recording: modules, frames, trajectories, ranges and which truth is present."""
+    rec = read_all([file], mapping, param="file")[0]
+    if as_json:
+        typer.echo(json.dumps(rec.describe(), indent=2, default=float))
+        return
+    typer.echo(rec.summary(str(file)))
+
+
+@app.command()
+def demo(
+    out: Path = typer.Option(Path("out"), "--out", help="Folder for the demo's report."),
+    recipe: str = typer.Option("snake12-paper", "--recipe", help="Recipe to run the demo on."),
+    frames: Optional[int] = typer.Option(
+        None, "--frames", help="Frames per protocol in the summary (default: the demo's small sizes)."
+    ),
+    models: bool = typer.Option(
+        True,
+        "--models/--no-models",
+        help="Train PG-CHTC and PG-CHTC-NS (fast) and calibrate capstan-nonsmooth for the comparison.",
+    ),
+) -> None:
+    """The main job on the default recipe: simulate, compare capstan-nonsmooth and the cascades in OUT/summary.html."""
+    from tendon_id.demo import run_demo
+
+    check_writable(out, "--out", folder=True)
+    with stage("demo"), training_warnings():
+        path = run_demo(out, recipe=recipe, frames=frames, models=models)
+    typer.echo(f"wrote {path}")

@@ -1,0 +1,100 @@
+"""``tendon-id fit``, ``evaluate`` and ``calibrate``: a model of any family, fitted, scored and calibrated."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from tendon_id.atomic import check_writable, hold_interrupt, json_text
+from tendon_id.checks import one_of
+from tendon_id.cli.app import app
+from tendon_id.cli.common import MAPPING_HELP, echo_guard, parse_sets, read_all, training_warnings
+from tendon_id.extras import require_extra
+from tendon_id.progress import stage
+from tendon_id.zoo.guard import quiet_guard
+from tendon_id.zoo.registry import names as model_names
+
+
+@app.command()
+def fit(
+    model: str = typer.Argument(..., help=f"Zoo model: {one_of(model_names())}."),
+    data: list[Path] = typer.Option(None, "--data", help="Recording(s) to fit on; repeat for several."),
+    set_: list[str] = typer.Option(None, "--set", help="Model setting key=value (JSON values); repeatable."),
+    out: Path = typer.Option(..., "--out", help="Folder for the fitted model (model.json + arrays.npz)."),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
+) -> None:
+    """Fit a zoo model on terminal-only labels and save it."""
+    from tendon_id import zoo
+
+    check_writable(out, "--out", folder=True)
+    m = zoo.make(model, **parse_sets(set_))
+    recs = read_all(data, mapping)
+    with stage(f"fit {model}"), quiet_guard(), training_warnings():  # the guard is printed below, plainly
+        m.fit(recs)
+    with stage("writing the model"), hold_interrupt():  # model.json and arrays.npz: both or neither new
+        m.save(out)
+    frames = sum(r.n_frames for r in recs)
+    typer.echo(f"fitted {model} on {frames} frames; saved to {out}")
+    echo_guard(m)
+
+
+@app.command()
+def evaluate(
+    model: Path = typer.Option(..., "--model", help="A folder written by 'tendon-id fit'."),
+    data: Path = typer.Option(..., "--data", help="Recording to evaluate on."),
+    as_json: bool = typer.Option(False, "--json", help="Print the metrics as JSON (see the CLI reference)."),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
+) -> None:
+    """Metrics of a fitted model on a recording: what it predicts against what was measured, where truth exists."""
+    from tendon_id import zoo
+
+    m = zoo.load(model)
+    rec = read_all([data], mapping)[0]
+    score = m.score(rec)
+    if as_json:  # standard JSON: an undefined R^2 (a constant reference) is null
+        typer.echo(json_text({"model": m.name, "frames": rec.n_frames, **score}, strict=True))
+        return
+    first, *rest = m.family.score_lines(m, score, rec, str(data))
+    typer.echo(first)
+    echo_guard(m)
+    for line in rest:
+        typer.echo(line)
+
+
+@app.command()
+def calibrate(
+    data: list[Path] = typer.Option(None, "--data", help="Recording(s) with terminal labels; repeat for several."),
+    model: str = typer.Option(
+        "capstan-nonsmooth",
+        "--model",
+        help="A model with a law: a snake's capstan model (capstan-simple, capstan-contact, capstan-nonsmooth, "
+        "capstan-const-mu, capstan), or passage-capstan for a bench's files.",
+    ),
+    tying: Optional[str] = typer.Option(None, "--tying", help="tied or per-guide (a snake's law; default: tied)."),
+    blocks: Optional[str] = typer.Option(
+        None, "--blocks", help="passage-capstan's effect blocks, comma-separated (stick_slip, smooth_edge, ...)."
+    ),
+    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
+    posterior: bool = typer.Option(False, "--posterior", help="Also sample the emcee posterior."),
+    out: Path = typer.Option(..., "--out", help="Output folder: calibration.json (+ posterior.json, corner.png)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the multi-start and of the sampler."),
+) -> None:
+    """Constrained calibration with nlopt (a snake's law, a passage's law and blocks), and its emcee posterior."""
+    from tendon_id.calibration.run import calibration_model, run_calibration
+
+    if posterior:
+        require_extra("posterior", "--posterior (its corner plot)")
+    check_writable(out, "--out", folder=True)
+    settings = {"tying": tying} if tying is not None else {}
+    if blocks is not None:
+        settings["blocks"] = [b.strip() for b in blocks.split(",") if b.strip()]
+    calibration_model(model, settings, seed)  # a bad model, setting or block fails before the data is read
+    recs = read_all(data, mapping)
+    with stage(f"calibrate {model}" + (" and its posterior" if posterior else "")):
+        written = run_calibration(
+            recs, model=model, settings=settings, posterior=posterior, out=out, seed=seed, report=typer.echo
+        )
+    for path in written:
+        typer.echo(f"wrote {path}")

@@ -1,0 +1,174 @@
+"""The rules every recording's data must keep, whatever its family: one small function per rule.
+
+Each ``check_*`` function raises :class:`~tendon_id.errors.RecordingError` naming the file
+(``source``), the column and the 0-based frame row of the first offending value, and returns
+nothing (or the value it had to compute anyway). Checks are vectorised per column. A family's
+recording composes them with its own (the snake chain's: :mod:`tendon_id.data.validation`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from tendon_id.data.columns import is_real_dtype
+from tendon_id.errors import RecordingError
+
+__all__ = [
+    "trajectory_starts",
+    "check_not_empty",
+    "check_numeric",
+    "check_trajectory_ids",
+    "check_contiguous_trajectories",
+    "check_finite",
+    "check_positive_tensions",
+    "check_time_increases",
+    "first_hit",
+    "first_true",
+]
+
+
+def first_true(mask: np.ndarray) -> int | None:
+    if mask.size and mask.any():
+        return int(mask.argmax())
+    return None
+
+
+def _short(value: Any, width: int = 40) -> str:
+    r = repr(value)
+    return r if len(r) <= width else r[: width - 3] + "..."
+
+
+def first_hit(arrays: Mapping[str, np.ndarray], test: Callable[[np.ndarray], np.ndarray]) -> tuple[str, int] | None:
+    """Earliest row where ``test`` holds, then the first such column in the mapping's order."""
+    best: tuple[str, int] | None = None
+    for c, a in arrays.items():
+        row = first_true(test(a))
+        if row is not None and (best is None or row < best[1]):
+            best = (c, row)
+            if row == 0:
+                break
+    return best
+
+
+def trajectory_starts(ids: np.ndarray) -> np.ndarray:
+    """ndarray of bool, shape (T,): True on the first frame of each block of equal ``ids``."""
+    starts = np.ones(len(ids), dtype=bool)
+    if len(ids) > 1:
+        starts[1:] = ids[1:] != ids[:-1]
+    return starts
+
+
+def check_not_empty(frame: pd.DataFrame, *, source: str | None = None) -> None:
+    """Raise when the recording has no frames."""
+    if len(frame) == 0:
+        raise RecordingError("the recording is empty (no frames)", file=source)
+
+
+def check_numeric(frame: pd.DataFrame, columns: Sequence[str], *, source: str | None = None) -> None:
+    """Raise for the first of ``columns`` whose dtype is not integer or floating.
+
+    The row named is the first value that does not parse as a number; for a text column whose
+    values all parse, the first missing value, else None (numbers stored as text). Booleans are
+    not numbers: the row is the first value.
+    """
+    for c in columns:
+        s = frame[c]
+        if not is_real_dtype(s.dtype):
+            text = s.dtype.kind in ("O", "U", "S", "T") or pd.api.types.is_string_dtype(s.dtype)
+            coerced = pd.to_numeric(s, errors="coerce") if text else pd.Series(np.nan, index=s.index)
+            bad = (coerced.isna() & s.notna()).to_numpy()
+            row = first_true(bad)
+            if row is not None:
+                v = s.iloc[row]
+                shown = _short(v.item() if isinstance(v, np.generic) else v)
+                reason = f"non-numeric value {shown} (dtype {s.dtype}); expected numbers"
+            else:
+                row = first_true(s.isna().to_numpy())
+                if row is not None:
+                    reason = f"missing value in a column of text (dtype {s.dtype}); expected numbers"
+                else:
+                    reason = f"numbers stored as text (dtype {s.dtype}); expected a numeric column"
+            raise RecordingError(reason, file=source, column=c, row=row)
+
+
+def check_trajectory_ids(frame: pd.DataFrame, *, source: str | None = None) -> np.ndarray:
+    """Raise for a missing or empty trajectory id; return the ids as a str array, shape (T,)."""
+    tr = frame["trajectory"]
+    row = first_true(tr.isna().to_numpy())
+    if row is not None:
+        raise RecordingError("missing trajectory id", file=source, column="trajectory", row=row)
+    ids = tr.to_numpy().astype(str)
+    row = first_true(np.char.str_len(ids) == 0) if ids.dtype.kind == "U" else None
+    if row is not None:
+        raise RecordingError("empty trajectory id", file=source, column="trajectory", row=row)
+    return ids
+
+
+def check_contiguous_trajectories(ids: np.ndarray, *, source: str | None = None) -> None:
+    """Raise when a trajectory id appears in two separate blocks of rows (row: the second block)."""
+    start_rows = np.flatnonzero(trajectory_starts(ids))
+    block_ids = pd.Series(ids[start_rows])
+    dup = block_ids.duplicated().to_numpy()
+    if dup.any():
+        b = int(dup.argmax())
+        raise RecordingError(
+            f"trajectory '{block_ids.iloc[b]}' appears in two separate blocks of rows; "
+            "each trajectory must be one contiguous block",
+            file=source,
+            column="trajectory",
+            row=int(start_rows[b]),
+        )
+
+
+def check_finite(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:
+    """Raise for a NaN or inf value in any of the float64 ``arrays`` (column name -> values).
+
+    The earliest row is reported, then the first column in the mapping's order.
+    """
+    hit = first_hit(arrays, lambda a: ~np.isfinite(a))
+    if hit:
+        c, row = hit
+        v = arrays[c][row]
+        raise RecordingError("NaN value" if np.isnan(v) else f"infinite value ({v})", file=source, column=c, row=row)
+
+
+def check_positive_tensions(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:
+    """Raise for a tension <= 0 N in any of the float64 tension ``arrays`` [N] (earliest row first)."""
+    hit = first_hit(arrays, lambda a: a <= 0)
+    if hit:
+        c, row = hit
+        raise RecordingError(
+            f"non-positive tension {arrays[c][row]:g} N; tensions must be > 0 N", file=source, column=c, row=row
+        )
+
+
+#: Range of tensions a recording may hold [N]. A snake robot's tendons carry tens to hundreds of N
+#: and no load cell resolves a nN; a value outside is a unit or storage error, and its square
+#: overflows or underflows in the metrics.
+def check_time_increases(t: np.ndarray, ids: np.ndarray, *, source: str | None = None) -> None:
+    """Raise where time [s] does not strictly increase within a trajectory.
+
+    Parameters
+    ----------
+    t : ndarray, shape (T,)
+        Time [s], float64.
+    ids : ndarray, shape (T,)
+        Trajectory id of every frame; time may restart where the id changes.
+    source : str, optional
+        File named in the error.
+    """
+    starts = trajectory_starts(ids)
+    bad = np.zeros(len(t), dtype=bool)
+    bad[1:] = (np.diff(t) <= 0) & ~starts[1:]
+    row = first_true(bad)
+    if row is not None:
+        raise RecordingError(
+            f"time does not increase within trajectory '{ids[row]}' (t = {t[row]:g} s after {t[row - 1]:g} s)",
+            file=source,
+            column="t",
+            row=row,
+        )

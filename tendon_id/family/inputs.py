@@ -1,0 +1,88 @@
+"""What every family's inputs have: frames in time, cut into trajectories, at one sample period.
+
+A family's inputs adapter turns its recordings into arrays over all frames, stacked in time
+(:doc:`/guide/architecture`). Whatever else they hold (a snake's angles and actuator tensions, a
+bench's input and output signals), they share what this mixin gives: the trajectory starts
+``reset``, the sample period ``dt``, derived arrays computed once (:meth:`FrameInputs.memo`),
+the time since each trajectory's start, and cutting and stacking by whole trajectories, which is
+how the diagnosis makes its splits.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["FrameInputs"]
+
+
+class FrameInputs:
+    """Mixin of a family's inputs, a frozen dataclass with the fields ``reset``, ``dt`` and ``cache``.
+
+    ``reset`` (bool, shape (T,)) is True on the first frame of each trajectory, ``dt`` the
+    sample period [s], ``cache`` a dict (``field(default_factory=dict, init=False)``);
+    :attr:`frame_fields` names the fields that hold one value per frame.
+    """
+
+    #: The fields with one entry per frame (cut by :meth:`subset`, joined by :meth:`concat`).
+    frame_fields: ClassVar[tuple[str, ...]] = ("reset",)
+
+    reset: NDArray
+    dt: float
+    cache: dict
+
+    @property
+    def n_frames(self) -> int:
+        """int : Frames ``T``."""
+        return int(self.reset.shape[0])
+
+    def memo(self, key: str, compute):
+        """``compute()`` once per key: derived arrays read on every evaluation of a model (wraps, speeds)."""
+        if key not in self.cache:
+            self.cache[key] = compute()
+        return self.cache[key]
+
+    def has(self, signal: str) -> bool:
+        """Whether the optional per-frame array ``signal`` is present (not None)."""
+        return getattr(self, signal, None) is not None
+
+    @property
+    def first_frame(self) -> NDArray[np.int64]:
+        """ndarray of int, shape (T,) : Index of the first frame of each frame's trajectory."""
+        return self.memo(
+            "first_frame", lambda: np.maximum.accumulate(np.where(self.reset, np.arange(self.n_frames), 0))
+        )
+
+    @property
+    def since_start(self) -> NDArray[np.float64]:
+        """ndarray, shape (T,) : Time since the start of each frame's trajectory [s]."""
+        return self.memo("since_start", lambda: (np.arange(self.n_frames) - self.first_frame) * self.dt)
+
+    @property
+    def trajectory_bounds(self) -> list[tuple[int, int]]:
+        """``(start, end)`` frame indices of each trajectory, in order."""
+        starts = np.flatnonzero(self.reset)
+        return list(zip(starts.tolist(), starts[1:].tolist() + [self.n_frames]))
+
+    def subset(self, mask: NDArray):
+        """The frames of ``mask`` (whole trajectories), as new inputs; the first of them starts a trajectory."""
+        cut = {f: None if getattr(self, f) is None else getattr(self, f)[mask] for f in self.frame_fields}
+        if cut["reset"].size:
+            cut["reset"][0] = True
+        return dataclasses.replace(self, **cut)
+
+    @classmethod
+    def concat(cls, parts: Sequence[FrameInputs]):
+        """Inputs stacked in time (each part's trajectories kept apart); a per-frame array missing in one is None."""
+        if len(parts) == 1:
+            return parts[0]
+
+        def joined(name):
+            arrays = [getattr(p, name) for p in parts]
+            return None if any(a is None for a in arrays) else np.concatenate(arrays)
+
+        return dataclasses.replace(parts[0], **{f: joined(f) for f in cls.frame_fields})

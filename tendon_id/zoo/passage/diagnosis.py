@@ -1,0 +1,105 @@
+"""The bench passage's part of the diagnosis: its splits, refit, strata and signatures (:doc:`/guide/diagnosis`).
+
+* **Splits by file.** A held-out set of files, or blocked cross-validation over files: a
+  file is never split, since a bench's samples are correlated over seconds.
+* **Refits** by :func:`~tendon_id.zoo.passage.fitting.calibrate_passage`, the base on each
+  split from its fit on all the training files, each candidate from that split's base fit.
+* **Candidates** are the passage blocks (:data:`~tendon_id.zoo.passage.blocks.PASSAGE_BLOCKS`);
+  one that reads a signal the data lack is skipped (the generic diagnosis asks
+  :meth:`~tendon_id.family.blocks.EffectBlock.missing`).
+* **Where**: near reversals, by load, by speed, by position, since a log's start.
+* **Signatures**: a block's change of the prediction at its probe values, the residual's
+  first-order shape where that block is missing.
+* **The noise floor** comes from the residual's first differences (a bench declares no
+  sensor noise).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from friction_models import play_operator
+from tendon_id.diagnosis.library import Library
+from tendon_id.diagnosis.splits import Split
+from tendon_id.diagnosis.where import quartile_masks
+from tendon_id.errors import ConfigError
+from tendon_id.family.fit import Fit
+from tendon_id.zoo.passage.fitting import calibrate_passage, calibration_record, data_scales
+from tendon_id.zoo.passage.inputs import PassageInputs
+
+__all__ = ["REVERSAL_SHARE", "UNITS", "file_splits", "passage_refit", "passage_strata", "signatures"]
+
+#: Share of the travel's range the input must move back after a reversal to leave the
+#: "near reversals" stratum [-].
+REVERSAL_SHARE = 0.05
+#: The SI unit of each quantity, as reports write it.
+UNITS = {"torque": "N m", "tension": "N"}
+
+
+def file_splits(train: list, test: list | None, folds: int) -> tuple[list[Split], str]:
+    """Held-out files, or blocked cross-validation over the training files (never within a file)."""
+    if test is not None:
+        return [Split(PassageInputs.from_recordings(train), PassageInputs.from_recordings(test))], (
+            f"held-out files ({len(train)} for fitting, {len(test)} held out)"
+        )
+    if len(train) < 2:
+        raise ConfigError("cross-validation by file needs two or more files; give held-out files with --test")
+    k = min(folds, len(train))
+    groups = np.array_split(np.arange(len(train)), k)
+    splits = [
+        Split(
+            PassageInputs.from_recordings([r for i, r in enumerate(train) if i not in g]),
+            PassageInputs.from_recordings([train[i] for i in g]),
+        )
+        for g in groups
+    ]
+    return splits, f"{k}-fold cross-validation by file ({len(train)} files)"
+
+
+def passage_refit(structure, train: PassageInputs, start: dict, max_nfev: int) -> Fit:
+    """Refit ``structure`` on ``train`` from ``start`` (``{label: value}``); ``Fit.model`` is the fitted copy."""
+    model = type(structure)(**{**structure.get_params(), "maxeval": max(int(max_nfev), structure.maxeval)})
+    fit = calibrate_passage(model, train, start=start)
+    model.theta_, model.quantity_, model.calibration_ = fit.values, train.quantity, calibration_record(fit)
+    fit.model = model
+    return fit
+
+
+def residual(model, inputs: PassageInputs) -> NDArray:
+    """Measured minus predicted side [Q], shape (T, 1), NaN in the model's warm-up."""
+    e = model.target(inputs) - model.reading(inputs, model.theta_)
+    e[inputs.since_start < float(model.warmup_s)] = np.nan
+    return e[:, None]
+
+
+def passage_strata(inputs: PassageInputs) -> list[tuple[str, str, NDArray]]:
+    """``(name, kind, mask)`` of a bench's strata: near reversals, load, speed, position, time since start."""
+    x = inputs.travel()
+    band = REVERSAL_SHARE * float(np.ptp(x))
+    stuck = play_operator(x, band, inputs.reset).sigma == 0 if band > 0 else np.zeros(x.shape, bool)
+    out = [("near reversals", "reversal", stuck), ("away from reversals", "reversal", ~stuck)]
+    unit = UNITS[inputs.quantity]
+    out += [(n, "load", m) for n, m in quartile_masks(np.abs(inputs.output), "output load", unit)]
+    speed = np.abs(inputs.speed())
+    rest = "input at rest" if speed.min() == 0 else None
+    out += [(n, "speed", m) for n, m in quartile_masks(speed, "input speed", "rad/s", least=rest)]
+    if inputs.position is not None:
+        angle = inputs.position_out if inputs.position_out is not None else inputs.position
+        out += [(n, "position", m) for n, m in quartile_masks(angle, "position", "rad")]
+    out += [(n, "start", m) for n, m in quartile_masks(inputs.since_start, "time since log start", "s")]
+    return out
+
+
+def signatures(fitted, inputs: PassageInputs, blocks: dict) -> Library:
+    """Each block's change of ``fitted``'s prediction when added at its probe values, shape (T, 1, C)."""
+    scale = data_scales(inputs)
+    theta = fitted.theta_
+    base = fitted.reading(inputs, theta)
+    labels, cols = [], []
+    for e, block in blocks.items():
+        probe = {f"{e}:{p}": v for p, v in block.probe(scale).items()}
+        cols.append(fitted.with_blocks(block).reading(inputs, {**theta, **probe}) - base)
+        labels.append(e)
+    columns = np.stack(cols, axis=-1)[:, None, :] if cols else np.zeros((inputs.n_frames, 1, 0))
+    return Library(labels, list(labels), columns)
