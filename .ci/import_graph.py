@@ -29,7 +29,7 @@ LAYER = {"tendon_id": 2, "learners": 1, "friction_models": 0}
 GENERIC = (
     "tendon_id.family",
     "tendon_id.diagnosis",
-    "tendon_id.calibration.run",
+    "tendon_id.report.calibration",
     "tendon_id.calibration.posterior",
     "tendon_id.calibration.mcmc",
     "tendon_id.calibration.optimize",
@@ -46,6 +46,7 @@ FOUNDATION = (
     "friction_models",
     "tendon_id.errors",
     "tendon_id.checks",
+    "tendon_id.registry",
     "tendon_id.atomic",
     "tendon_id.progress",
     "tendon_id.metrics",

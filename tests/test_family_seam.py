@@ -26,13 +26,13 @@ from scipy.optimize import least_squares
 
 from tendon_id import zoo
 from tendon_id.calibration.posterior import LOG_SIGMA_RANGE, Factor, Likelihood, Posterior, sample_posterior
-from tendon_id.calibration.run import run_calibration
 from tendon_id.data import rules
 from tendon_id.data.frame import FrameRecording
 from tendon_id.diagnosis import DiagnosisSettings, Library, Split, diagnose, difference_floor, quartile_masks
 from tendon_id.errors import ConfigError
 from tendon_id.family import BlockRegistry, EffectBlock, Family, Fit, FrameInputs, register_family, unregister_family
 from tendon_id.metrics import jacobian_correlation, tendon_metrics
+from tendon_id.report.calibration import run_calibration
 from tendon_id.zoo.estimator import Estimator
 from tendon_id.zoo.testing import check_model
 

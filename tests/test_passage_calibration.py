@@ -90,7 +90,7 @@ def test_calibrate_refuses_a_passage_misuse_with_exit_2(fitted, tmp_path, capsys
 
 def test_run_calibration_of_a_passage_needs_no_report(fitted, tmp_path):
     """The library call prints nothing unless asked (it once called a missing ``report`` on this path)."""
-    from tendon_id.calibration.run import run_calibration
+    from tendon_id.report.calibration import run_calibration
 
     recs, _ = fitted
     written = run_calibration(recs, model="passage-capstan", settings={"blocks": ["stick_slip"]}, out=tmp_path)

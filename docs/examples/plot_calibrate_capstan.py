@@ -237,7 +237,7 @@ for name in ("proximal", "capstan-contact", "capstan-nonsmooth"):
         "terminal R2": s["terminal"]["r2"],
         "joints 2-11 RMSE [N]": s["joints"]["overall"]["rmse"],
         "joints 2-11 R2": s["joints"]["overall"]["r2"],
-        "mu0 (mean of 3)": float(np.mean(m.mu0_)) if hasattr(m, "A_") else float("nan"),
+        "mu0 (mean of 3)": float(np.mean(m.mu0_)) if name != "proximal" else float("nan"),  # proximal has no law
     }
 print(pd.DataFrame(rows).T.round(3))
 

@@ -1,4 +1,4 @@
-"""``tendon-id benchmark diagnosis``: how often the diagnosis names a withheld effect right (issue 15).
+"""``tendon-id benchmark diagnosis``: how often the diagnosis names a withheld effect right (:doc:`/guide/benchmarks`).
 
 Every case (:mod:`tendon_id.benchmarks.withheld`) is simulated, its base is calibrated on the
 training data and :func:`tendon_id.diagnosis.diagnose` runs on it; an oracle refit of the true

@@ -9,12 +9,12 @@ before any work.
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 from tendon_id.checks import check_choice, check_count
 from tendon_id.errors import ConfigError
+from tendon_id.registry import resolve
 
 __all__ = ["BENCHMARKS", "PRESETS", "Benchmark", "format_table", "get_benchmark", "run_benchmark"]
 
@@ -46,19 +46,17 @@ class Benchmark:
     options: tuple[str, ...] = ()
     page: str | None = None
 
-    @staticmethod
-    def resolve(path: str) -> Callable:
-        module, _, attr = path.partition(":")
-        return getattr(importlib.import_module(module), attr)
-
     def arguments(self, preset: str = "fast", **given) -> dict:
         """The runner's keyword arguments: ``preset`` and the ``given`` options that are not None, checked.
+
+        Everything the runner would otherwise refuse after its work is checked here, before it:
+        the preset, options this benchmark does not take, a count below 1, a recipe that does not
+        load, and a joblib backend that is not installed or an ``n_jobs`` it refuses.
 
         Raises
         ------
         ConfigError
-            Naming the option (as the parameter), for an unknown preset, an option this benchmark
-            does not take, or a count below 1.
+            Naming the option (as the parameter).
         """
         kwargs = {"preset": check_choice("preset", preset, PRESETS)}
         for option, value in given.items():
@@ -68,17 +66,31 @@ class Benchmark:
                 takes = ", ".join(self.options) or "none besides preset"
                 raise ConfigError(f"the {self.name} benchmark does not take it (its options: {takes})", param=option)
             kwargs[option] = check_count(option, value) if option == "repeats" else value
+        if "recipe" in kwargs:
+            from tendon_id.datasets import load_recipe
+
+            load_recipe(kwargs["recipe"])
+        if "backend" in self.options:  # dask or ray must be installed and registered; n_jobs a non-zero integer
+            from tendon_id.benchmarks.jobs import job_runner
+
+            job_runner(kwargs.get("backend", "loky"), kwargs.get("n_jobs", 1))
         return kwargs
 
     def __call__(self, **kwargs) -> dict:
         """Run the benchmark with checked arguments (:meth:`arguments`)."""
-        return self.resolve(self.run)(**kwargs)
+        return resolve(self.run)(**kwargs)
 
-    def write_page(self, result: dict, path) -> object:
-        """Write the benchmark's page (ConfigError, naming ``out``, for one that draws none)."""
+    def check_page(self, path) -> None:
+        """Raise ConfigError, naming ``out``, for a benchmark that draws no page or a ``path`` that is not HTML."""
         if self.page is None:
             raise ConfigError(f"the {self.name} benchmark writes no page", param="out")
-        return self.resolve(self.page)(result, path)
+        if Path(path).suffix.lower() not in (".html", ".htm"):
+            raise ConfigError(f"{path}: the page is an HTML file (.html)", param="out")
+
+    def write_page(self, result: dict, path) -> Path:
+        """Write the benchmark's page to ``path``; returns it."""
+        self.check_page(path)
+        return resolve(self.page)(result, path)
 
 
 def _table(name, summary, run, format, options=(), page=None) -> tuple[str, Benchmark]:
@@ -151,7 +163,7 @@ BENCHMARKS: dict[str, Benchmark] = dict(
 
 def get_benchmark(name: str) -> Benchmark:
     """The benchmark called ``name`` (ConfigError listing the known ones otherwise)."""
-    return BENCHMARKS[check_choice("benchmark", name, BENCHMARKS)]
+    return BENCHMARKS[check_choice("name", name, BENCHMARKS, what="benchmark")]
 
 
 def run_benchmark(name: str, *, preset: str = "fast", **options) -> dict:
@@ -162,4 +174,4 @@ def run_benchmark(name: str, *, preset: str = "fast", **options) -> dict:
 
 def format_table(result: dict) -> str:
     """A benchmark's result as aligned text, by the benchmark's own formatter."""
-    return Benchmark.resolve(BENCHMARKS[result["benchmark"]].format)(result)
+    return resolve(BENCHMARKS[result["benchmark"]].format)(result)

@@ -52,7 +52,7 @@ from joblib import delayed
 
 from tendon_id.benchmarks.jobs import job_runner
 from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
-from tendon_id.checks import check_choice
+from tendon_id.checks import check_choice, check_count
 from tendon_id.errors import ConfigError
 from tendon_id.metrics import frame_weighted, tendon_metrics
 from tendon_id.progress import progress_bar
@@ -84,8 +84,7 @@ def grid(parameter: str, points: int = 5) -> list:
     """
     if parameter not in RANGES:
         check_choice("parameter", parameter, RANGES, what="sweep parameter")
-    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 2:
-        raise ConfigError(f"points must be an integer of at least 2, got {points!r}")
+    check_count("points", points, 2)
     lo, hi = RANGES[parameter]
     op = OPERATING_POINT[parameter]
     values = list(np.geomspace(lo, hi, int(points)))

@@ -18,10 +18,9 @@ import numpy as np
 from tendon_id.benchmarks.jobs import job_runner
 from tendon_id.benchmarks.splits import paper_split
 from tendon_id.benchmarks.tables import model_factory
-from tendon_id.checks import check_count
+from tendon_id.checks import check_choices, check_count
 from tendon_id.closed_loop import ORACLE, STEP_TESTS, in_loop, joint_torque, loop_metrics, run_step_test
 from tendon_id.datasets import load_recipe
-from tendon_id.errors import ConfigError
 from tendon_id.geometry import tendon_azimuths
 from tendon_id.progress import progress_bar
 from tendon_id.zoo.guard import quiet_guard
@@ -152,9 +151,7 @@ def table3(
     runs for the figure.
     """
     check_count("repeats", repeats)
-    unknown = [e for e in estimators if e not in TABLE3_ESTIMATORS]
-    if unknown:
-        raise ConfigError(f"table3 compares {', '.join(TABLE3_ESTIMATORS)}; unknown: {', '.join(unknown)}")
+    check_choices("estimators", estimators, TABLE3_ESTIMATORS, what="estimator")
     t0 = time.perf_counter()
     load_recipe(recipe)  # a bad name fails before any fitting
     split = paper_split(recipe, seed, progress=progress)

@@ -48,7 +48,7 @@ STRIBECK_SPEED = 0.002
 #: the backbone's stiffness) are seen in steady state for seconds; the planned paths add the
 #: smooth joint motion that speed and lag effects need.  Free terminal-only sweeps slip back
 #: and forth all the time, and a model fed measured inputs inherits a heavy-tailed error at
-#: each slip (:func:`~tendon_id.diagnosis.stats.noise_floor`): with them instead of the held
+#: each slip (:func:`~tendon_id.zoo.snake.diagnosis.noise_floor`): with them instead of the held
 #: poses, a perfect model's held-out error was 1.39-1.55 N against 1.24-1.29 N (seeds 0-2),
 #: and a default worn guide raised the base's mean squared error over a perfect model's
 #: 1.3-1.6-fold against 2.3-2.8-fold.

@@ -16,8 +16,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.calibration.problem import LawProblem, constrained_lstsq
-from tendon_id.zoo.capstan import CapstanModel
-from tendon_id.zoo.inputs import TransmissionInputs
 
 
 def encoder_runs(angles: NDArray) -> NDArray[np.int64]:
@@ -44,19 +42,15 @@ def encoder_runs(angles: NDArray) -> NDArray[np.int64]:
     return ids.reshape(angles.shape)
 
 
-def encoder_covariance(
-    model: CapstanModel, inputs: TransmissionInputs, encoder_step: float, *, n_draws: int = 64, seed: int = 0
-) -> NDArray[np.float64]:
+def encoder_covariance(model, inputs, encoder_step: float, *, n_draws: int = 64, seed: int = 0) -> NDArray[np.float64]:
     """Covariance of the law from encoder quantisation, per tendon, shape (3, p, p).
 
-    Refits the smooth surrogate of ``model`` (its law and exponent blocks) on
-    angles offset by ``U(-step/2, step/2)`` per group of :func:`encoder_runs`.
+    Refits the smooth surrogate of ``model`` (a capstan model: its law and exponent blocks,
+    :meth:`~tendon_id.zoo.capstan.CapstanModel.smooth_part`) on the angles of ``inputs``
+    (:class:`~tendon_id.zoo.inputs.TransmissionInputs`) offset by ``U(-step/2, step/2)`` per
+    group of :func:`encoder_runs`; ``encoder_step`` is the encoder's quantum [rad].
     """
-    surrogate = CapstanModel(
-        mu_law=model.mu_law,
-        blocks=[b for b in model.block_objects if b.stage == "exponent" and not b.per_tendon],
-        tying=model.tying,
-    )
+    surrogate = model.smooth_part()
     runs = encoder_runs(inputs.angles)
     n_runs = int(runs.max()) + 1
     rng = np.random.default_rng(seed)

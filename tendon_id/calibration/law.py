@@ -1,4 +1,4 @@
-"""Constrained calibration of the capstan family with nlopt (:doc:`/guide/calibration`).
+"""Constrained calibration of the snake chain's capstan law with nlopt (:doc:`/guide/calibration`).
 
 The friction law is fitted by least squares in the log domain on terminal-only
 labels, ``sum_t sum_i (ln T_hat[N, N, i] - ln T[N, N, i])^2``, under

@@ -4,10 +4,10 @@ Following pyPESTO's ``Problem`` -> ``Result`` flow, a :class:`LawProblem` holds 
 data and a capstan model's structure say about the law, and each analysis consumes it and
 returns its own result:
 
-* :func:`tendon_id.calibration.calibrate` -> :class:`~tendon_id.calibration.CalibrationResult`
+* :func:`tendon_id.calibration.law.calibrate` -> :class:`~tendon_id.calibration.law.CalibrationResult`
   (nlopt, multi-start where nonsmooth);
-* :func:`tendon_id.calibration.posterior.sample_posterior` -> :class:`~tendon_id.calibration.posterior.PosteriorResult`
-  (emcee);
+* :func:`tendon_id.calibration.posterior.sample_posterior` (emcee, with the likelihood of
+  :mod:`tendon_id.calibration.law_posterior`) -> :class:`~tendon_id.calibration.law_posterior.PosteriorResult`;
 * :func:`tendon_id.identifiability.analyse` -> :class:`~tendon_id.identifiability.IdentifiabilityResult`
   (through :class:`~tendon_id.identifiability.IdentifiabilityProblem`, a subclass).
 

@@ -12,7 +12,6 @@ from tendon_id.atomic import check_writable, hold_interrupt
 from tendon_id.cli.app import app
 from tendon_id.cli.common import MAPPING_HELP, read_all, training_warnings
 from tendon_id.errors import ConfigError
-from tendon_id.family.registry import family_names, get_family
 from tendon_id.progress import stage
 
 
@@ -67,11 +66,6 @@ def identifiability(
     typer.echo(f"wrote {path}" + (f" and {json_out}" if json_out else ""))
 
 
-def _candidates_help() -> str:
-    effects = "; ".join(f"{name}: {', '.join(get_family(name).blocks)}" for name in family_names())
-    return f"Comma-separated candidate effects of the base's family (default all; {effects})."
-
-
 @app.command()
 def diagnose(
     data: list[Path] = typer.Option(None, "--data", help="Training recording(s); repeat for several."),
@@ -86,7 +80,12 @@ def diagnose(
         help="The base: a folder from 'tendon-id fit', or a zoo model with effect blocks (a snake's capstan "
         "model, or passage-capstan for a bench's files).",
     ),
-    candidates: Optional[str] = typer.Option(None, "--candidates", help=_candidates_help()),
+    candidates: Optional[str] = typer.Option(
+        None,
+        "--candidates",
+        help="Comma-separated candidate effects among the base family's blocks (default: all of them; "
+        "a name it does not know is refused with the list).",
+    ),
     mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
     out: Path = typer.Option(Path("diagnosis.html"), "--out", help="Self-contained HTML report."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Also write the JSON result."),

@@ -12,7 +12,6 @@ from tendon_id.benchmarks.registry import BENCHMARKS, PRESETS, get_benchmark
 from tendon_id.checks import one_of
 from tendon_id.cli.app import app
 from tendon_id.cli.common import training_warnings
-from tendon_id.errors import ConfigError
 from tendon_id.progress import stage
 
 
@@ -56,19 +55,8 @@ def benchmark(
     if json_out is not None:
         check_writable(json_out, "--json", suffixes=(".json",))
     if out is not None:
-        if b.page is None:
-            raise ConfigError(f"the {name} benchmark writes no page", param="out")
-        if out.suffix.lower() not in (".html", ".htm"):
-            raise ConfigError(f"{out}: the page is an HTML file (.html)", param="out")
+        b.check_page(out)
         check_writable(out, "--out")
-    if recipe:
-        from tendon_id.datasets import load_recipe
-
-        load_recipe(recipe)
-    if "backend" in b.options:  # dask or ray must be installed and registered; n_jobs a non-zero integer
-        from tendon_id.benchmarks.jobs import job_runner
-
-        job_runner(backend or "loky", 1 if n_jobs is None else n_jobs)
     from tendon_id.benchmarks.registry import format_table
 
     with stage(f"benchmark {name}"), training_warnings():

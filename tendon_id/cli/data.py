@@ -1,4 +1,4 @@
-"""``tendon-id simulate``, ``info`` and ``demo``: recordings in, recordings out, and the demo on the default recipe."""
+"""``tendon-id simulate`` and ``info``: a simulated recording written, any recording summarised."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import typer
 from tendon_id.atomic import check_writable, hold_interrupt
 from tendon_id.checks import one_of
 from tendon_id.cli.app import app
-from tendon_id.cli.common import MAPPING_HELP, read_all, training_warnings
+from tendon_id.cli.common import MAPPING_HELP, read_all
 from tendon_id.progress import stage
 from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
@@ -56,25 +56,3 @@ def info(
         typer.echo(json.dumps(rec.describe(), indent=2, default=float))
         return
     typer.echo(rec.summary(str(file)))
-
-
-@app.command()
-def demo(
-    out: Path = typer.Option(Path("out"), "--out", help="Folder for the demo's report."),
-    recipe: str = typer.Option("snake12-paper", "--recipe", help="Recipe to run the demo on."),
-    frames: Optional[int] = typer.Option(
-        None, "--frames", help="Frames per protocol in the summary (default: the demo's small sizes)."
-    ),
-    models: bool = typer.Option(
-        True,
-        "--models/--no-models",
-        help="Train PG-CHTC and PG-CHTC-NS (fast) and calibrate capstan-nonsmooth for the comparison.",
-    ),
-) -> None:
-    """The main job on the default recipe: simulate, compare capstan-nonsmooth and the cascades in OUT/summary.html."""
-    from tendon_id.demo import run_demo
-
-    check_writable(out, "--out", folder=True)
-    with stage("demo"), training_warnings():
-        path = run_demo(out, recipe=recipe, frames=frames, models=models)
-    typer.echo(f"wrote {path}")

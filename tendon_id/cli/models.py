@@ -82,7 +82,7 @@ def calibrate(
     seed: int = typer.Option(0, "--seed", help="Seed of the multi-start and of the sampler."),
 ) -> None:
     """Constrained calibration with nlopt (a snake's law, a passage's law and blocks), and its emcee posterior."""
-    from tendon_id.calibration.run import calibration_model, run_calibration
+    from tendon_id.report.calibration import calibration_model, run_calibration
 
     if posterior:
         require_extra("posterior", "--posterior (its corner plot)")

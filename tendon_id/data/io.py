@@ -222,14 +222,14 @@ def check_csv_header(path: Path, frame: pd.DataFrame) -> pd.DataFrame:
         if name.lstrip().startswith("#"):
             raise RecordingError(
                 f"the first line is a comment ({name.strip()[:40]!r}); the file must start with its header line "
-                '(or read it through a --mapping file with comment = "#")',
+                '(or read it through a mapping file with comment = "#")',
                 file=src,
             )
         for sep, said in _OTHER_SEPARATORS.items():
             if sep in name:
                 raise RecordingError(
                     f"the columns are separated by {said}; tendon-id reads comma-separated CSV "
-                    f"(write it with ',', or read it through a --mapping file with delimiter = {sep!r})",
+                    f"(write it with ',', or read it through a mapping file with delimiter = {sep!r})",
                     file=src,
                 )
     try:

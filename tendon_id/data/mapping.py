@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tendon_id.checks import check_keys
+from tendon_id.checks import check_choice, check_keys
 from tendon_id.data import rules
 from tendon_id.data.io import first_line, read_frame
 from tendon_id.data.units import DIMENSIONS, si_factor
@@ -139,9 +139,7 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         raise ConfigError(f"{src}: no such mapping file") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"{src}: not a readable TOML mapping ({first_line(exc)})") from None
-    kind = doc.get("kind", DEFAULT_MAPPED)
-    if kind not in family_names():
-        raise ConfigError(f"{src}: kind = {kind!r}; known: {', '.join(family_names())}")
+    kind = check_choice(f"{src}: kind", doc.get("kind", DEFAULT_MAPPED), family_names(), what="kind")
     recording = get_family(kind).recording
     known = _TOP | set(recording.mapping_keys)
     check_keys(doc, known, what="key", where=src)

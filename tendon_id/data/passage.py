@@ -28,6 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pandas as pd
 
+from tendon_id.checks import check_choice
 from tendon_id.data import rules
 from tendon_id.data.columns import float_column, infer_sample_rate
 from tendon_id.data.frame import FrameRecording
@@ -201,9 +202,7 @@ class PassageRecording(FrameRecording):
         from tendon_id.data.mapping import table
         from tendon_id.data.units import si_factor
 
-        quantity = doc.get("quantity", "tension")
-        if quantity not in QUANTITIES:
-            raise ConfigError(f"{where}: quantity = {quantity!r}; known: {', '.join(QUANTITIES)}")
+        quantity = check_choice(f"{where}: quantity", doc.get("quantity", "tension"), QUANTITIES, what="quantity")
         wrap = table(doc, "geometry", {"wrap_angle"}, where).get("wrap_angle", "infer")
         if wrap == "infer":
             wrap = None

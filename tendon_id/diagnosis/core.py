@@ -91,7 +91,7 @@ def diagnose(
     settings = settings or DiagnosisSettings()
     family.check_base(base)
     names = candidate_names(candidates, family.blocks)
-    train_recs = family.recordings(train)
+    train_recs = family.recordings(train, "train")
     test_recs = family.recordings(test, "test") if test is not None else None
     if not base.is_fitted:
         base = base.fit(train_recs)

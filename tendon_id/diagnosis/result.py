@@ -1,4 +1,8 @@
-"""What a diagnosis returns: one result object, and its JSON form (the ``--json`` floor of issue 15)."""
+"""What a diagnosis returns: one result object, and its JSON form (the ``--json`` floor of :doc:`/guide/diagnosis`).
+
+Errors are in the unit of the base's family (:attr:`DiagnosisResult.unit`: N, or N m for a
+torque passage), written [unit] below.
+"""
 
 from __future__ import annotations
 
@@ -18,15 +22,15 @@ class CandidateResult:
     Attributes
     ----------
     effect : str
-        Simulator effect name (:doc:`/guide/simulator`).
+        The effect's name among its family's blocks (a snake's: :doc:`/guide/simulator`).
     block : dict
         The block as saved (``Block.to_dict``), with its fitted parameters.
     heldout_rmse : float
-        Held-out terminal RMSE of base plus this block [N].
+        Held-out RMSE of base plus this block [unit].
     gap_closed : float
         Share of the base's held-out mean squared error above the noise floor that it removes [-].
     improvement_ci : tuple of float
-        Bootstrap interval of the drop in mean squared error [N^2].
+        Bootstrap interval of the drop in mean squared error [unit^2].
     significant : bool
         The interval excludes 0 (at the Bonferroni-corrected level).
     ic_delta : float
@@ -77,10 +81,10 @@ class Rung:
     Attributes
     ----------
     effects : list of str
-    heldout_rmse : float [N]
+    heldout_rmse : float [unit]
     gap_closed : float [-]
     improvement_ci : tuple of float
-        Drop in mean squared error against the rung below [N^2] (NaN for the base).
+        Drop in mean squared error against the rung below [unit^2] (NaN for the base).
     """
 
     effects: list
@@ -124,9 +128,9 @@ class DiagnosisResult:
     base : str
         The base model's zoo name.
     base_rmse, noise_floor : float
-        Held-out terminal RMSE of the (refitted) base, and of a perfect model [N].
+        Held-out RMSE of the (refitted) base, and of a perfect model [unit].
     noise_floor_upper : float
-        The ``1 - alpha`` quantile of a perfect model's RMSE over simulated sensor draws [N].
+        The ``1 - alpha`` quantile of a perfect model's RMSE over simulated sensor draws [unit].
     noise_source : str
     validation : str
         ``"test"`` or the cross-validation used.
@@ -145,7 +149,7 @@ class DiagnosisResult:
         The base, then each accepted effect.
     verdict : Verdict
     warnings : list of str
-    model : CapstanModel
+    model : Estimator
         The last rung's model, refitted on all the training data.
     plots : dict
         Held-out residual and leading signature columns (subsampled) for the report.
@@ -180,7 +184,7 @@ class DiagnosisResult:
 
     @classmethod
     def assemble(cls, *, residual, floor, library, ranked: list, rng, heldout_frames: int, **fields) -> DiagnosisResult:
-        """The result from the base's held-out ``residual`` [N], the noise ``floor``, the signatures and the ranking.
+        """The result from the base's held-out ``residual`` [unit], the noise ``floor``, signatures and ranking.
 
         Computes what every family reports alike: the whiteness of the residual, its
         correlation with the signatures, the sparse vote, the plots and the warnings of

@@ -78,10 +78,10 @@ class Scorer:
         return scores
 
     def improvement_ci(self, e_before: NDArray, e_after: NDArray, block: int, level: float, rng) -> tuple[float, float]:
-        """Block-bootstrap interval of the drop in held-out mean squared error [N^2]."""
+        """Block-bootstrap interval of the drop in held-out mean squared error [unit^2]."""
         return improvement_ci(e_before, e_after, block, self.settings.n_boot, level, rng)
 
     def excess_ci(self, e: NDArray, floor: float, block: int, level: float, rng) -> tuple[float, float]:
-        """Block-bootstrap interval of the mean squared error above the noise floor's [N^2]."""
+        """Block-bootstrap interval of the mean squared error above the noise floor's [unit^2]."""
         ok = np.isfinite(e).all(axis=1)
         return bootstrap_ci((e[ok] ** 2).mean(axis=1) - floor**2, block, self.settings.n_boot, level, rng)

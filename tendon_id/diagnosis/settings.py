@@ -14,7 +14,8 @@ class DiagnosisSettings:
     Parameters
     ----------
     folds : int
-        Blocked cross-validation folds by trajectory when no test data is given.
+        Blocked cross-validation folds (by trajectory for the snake chain, by file for a bench)
+        when no test data is given.
     alpha : float
         Significance level of the improvement tests; the first rung's is divided by the
         number of candidates (Bonferroni), since the best of them is picked.

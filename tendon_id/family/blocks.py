@@ -3,7 +3,7 @@
 An effect block is a piece of physics a model is composed of (:doc:`/guide/architecture`): a
 contact gate, stick/slip, a viscous friction. Each family has its own base class and its own
 stages (where in its forward model a block acts), but every block declares the same things,
-which is all the diagnosis reads:
+which, with the three methods of :class:`EffectBlock`, is all the diagnosis reads:
 
 ``name``
     Registry name (what a saved model stores).
@@ -23,7 +23,9 @@ which is all the diagnosis reads:
     What the effect leaves in a residual, in words.
 
 A family's base block sets ``registry`` to its :class:`BlockRegistry`; every subclass that sets
-``name`` registers itself there.
+``name`` registers itself there. The methods :meth:`EffectBlock.neutral` (the parameters' values
+that switch the effect off), :meth:`EffectBlock.to_dict` (the block as a report shows it) and
+:meth:`EffectBlock.location` (where the effect sits) have defaults a family may override.
 """
 
 from __future__ import annotations
@@ -73,10 +75,6 @@ class BlockRegistry:
     def __len__(self) -> int:
         return len(self.by_effect)
 
-    def effects(self) -> list[str]:
-        """The effects, in registration order."""
-        return list(self.by_effect)
-
     def lookup(self, name: str) -> type:
         """The block class registered as ``name``, or modelling effect ``name``."""
         cls = self.by_name.get(name) or self.by_effect.get(name)
@@ -117,3 +115,15 @@ class EffectBlock:
     def missing(self, inputs) -> list[str]:
         """The optional signals of :attr:`needs` that ``inputs`` lack (``inputs.has(signal)``)."""
         return [need for need in self.needs if not inputs.has(need)]
+
+    def neutral(self) -> dict[str, float]:
+        """The parameters' values that switch the effect off (default: 0 each)."""
+        return {p: 0.0 for p in self.param_names}
+
+    def to_dict(self) -> dict:
+        """The block as the diagnosis reports it (default: its name)."""
+        return {"block": self.name}
+
+    def location(self) -> str:
+        """Where the effect sits, for a block that says (a worn guide); default ``""``, the whole transmission."""
+        return ""

@@ -81,10 +81,6 @@ class Fit:
         """dict : ``{label: value}`` at the optimum."""
         return dict(zip(self.labels, np.asarray(self.x, dtype=float).tolist()))
 
-    def is_law(self, label: str) -> bool:
-        """Whether ``label`` is one of the law's parameters (not a block's)."""
-        return self.labels.index(label) < self.n_law
-
     def bic(self, n_eff: float | None = None) -> float:
         """Bayesian information criterion on the training loss (Schwarz 1978), Gaussian errors.
 

@@ -1,16 +1,14 @@
 """The families by name: the built-in ones listed by where they live, imported on first use.
 
 Like the zoo's registry, the table names ``"module:attribute"`` instead of importing, so that
-asking for one family imports only its own modules, and the code written once never imports a
-family (``python .ci/import_graph.py`` checks it).
+asking for one family imports only its own modules, and no module of the code written once has an
+import of a family's module (``python .ci/import_graph.py`` checks it).
 """
 
 from __future__ import annotations
 
-import importlib
-
-from tendon_id.checks import check_choice
 from tendon_id.family.protocol import Family
+from tendon_id.registry import Registry
 
 __all__ = [
     "DEFAULT_MAPPED",
@@ -32,37 +30,29 @@ BUILTIN: dict[str, str] = {
 #: were made for a bench's own files first.
 DEFAULT_MAPPED = "passage"
 
-_FAMILIES: dict[str, Family | str] = dict(BUILTIN)
+_FAMILIES = Registry("transmission family", BUILTIN)
 
 
 def register_family(family: Family) -> Family:
     """Add ``family`` under its name (a new one, or in place of a built-in); returns it."""
     if not isinstance(family, Family):
         raise TypeError(f"a family must be a Family instance, got {type(family).__name__}")
-    _FAMILIES[family.name] = family
-    return family
+    return _FAMILIES.register(family.name, family)
 
 
 def unregister_family(name: str) -> None:
     """Remove the family registered as ``name`` (a built-in one comes back as it was)."""
-    if name in BUILTIN:
-        _FAMILIES[name] = BUILTIN[name]
-    else:
-        _FAMILIES.pop(check_choice("family", name, _FAMILIES, what="transmission family"), None)
+    _FAMILIES.unregister(name)
 
 
 def family_names() -> list[str]:
     """The registered families' names (imports none)."""
-    return list(_FAMILIES)
+    return _FAMILIES.names()
 
 
 def get_family(name: str) -> Family:
     """The family registered as ``name``, importing its module on first use."""
-    entry = _FAMILIES[check_choice("family", name, _FAMILIES, what="transmission family")]
-    if isinstance(entry, str):
-        module, _, attr = entry.partition(":")
-        entry = _FAMILIES[name] = getattr(importlib.import_module(module), attr)
-    return entry
+    return _FAMILIES.get(name, "family")
 
 
 class family_named:  # noqa: N801 - used like a decorator-free property, in lower case as ``property`` is

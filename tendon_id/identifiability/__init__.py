@@ -3,7 +3,7 @@
 Which parameters, and which intermediate tensions, does a terminal-only data set
 actually determine?  :func:`analyse` answers for the tied and the per-guide law and
 returns one :class:`IdentifiabilityResult`; :func:`tendon_id.report.identifiability.write_report`
-turns it into a self-contained HTML page and the JSON of :doc:`/cli`.  The study works on
+turns it into a self-contained HTML page and the JSON of :doc:`/guide/identifiability`.  The study works on
 :class:`IdentifiabilityProblem`, the calibration's :class:`tendon_id.calibration.problem.LawProblem`
 restricted to the smooth affine-cosine models.
 """

@@ -49,7 +49,7 @@ MISSPECIFIED_RATIO = 1.5
 
 @dataclass
 class IdentifiabilityResult:
-    """The single result of :func:`analyse`; :meth:`to_json` gives the :doc:`/cli` shape (a floor).
+    """The single result of :func:`analyse`; :meth:`to_dict` gives the JSON of :doc:`/guide/identifiability` (a floor).
 
     ``truth`` holds the data's intermediate joint-side truth (T, N, 3) where present; it
     scores the bands and the advice and is never used to fit.
@@ -87,7 +87,7 @@ class IdentifiabilityResult:
         }
 
     def to_dict(self) -> dict:
-        """The study as JSON-able data: :doc:`/cli`'s ``identifiability --json`` shape, and more keys."""
+        """The study as JSON-able data: ``identifiability --json``'s shape, and more (:doc:`/guide/identifiability`)."""
         tied, per = self.studies["tied"], self.studies["per-guide"]
         cov = self.coverage
         bands = {

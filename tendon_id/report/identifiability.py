@@ -1,4 +1,4 @@
-"""The identifiability report: one self-contained HTML page and the JSON of :doc:`/cli`."""
+"""The identifiability report: one self-contained HTML page and its JSON (:doc:`/guide/identifiability`)."""
 
 from __future__ import annotations
 

@@ -5,7 +5,7 @@
 ``(T, sets, 3)`` arrays per guide, each paying a transcendental function per element.  This
 module runs the same physics frame by frame in one loop compiled by numba (Lam, Pitrou &
 Seibert, LLVM-HPC 2015), where every quantity of a guide is used while it is in a register.
-It is what makes a million frames a matter of seconds (issue 19's load check); the composed
+It is what makes a million frames a matter of seconds (the load check of :doc:`/guide/benchmarks`); the composed
 route stays the reference, and the tests hold the two to rounding for every effect it runs.
 
 Three rewrites, each exact in real arithmetic, save most of the transcendental calls:

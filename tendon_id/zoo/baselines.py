@@ -41,6 +41,7 @@ from learners.baselines import (
     train_baseline,
 )
 from learners.training import TrainingError
+from tendon_id.checks import check_choice
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.geometry import RobotGeometry, sin_q
@@ -113,8 +114,7 @@ class _Baseline(TransmissionModel):
 
     # ---- inputs -----------------------------------------------------------------------------
     def _resolve_mode(self, n_modules: int) -> str:
-        if self.mode not in MODES:
-            raise ConfigError(f"{self.name}: unknown mode {self.mode!r}; modes: {', '.join(MODES)}")
+        check_choice("mode", self.mode, MODES)
         mode = ("unit" if n_modules == 2 else "end-to-end") if self.mode == "auto" else self.mode
         if mode == "unit" and n_modules != 2:
             raise ConfigError(

@@ -1,6 +1,6 @@
-"""The capstan family of transmission hypotheses, built from effect blocks.
+"""The capstan models of the snake chain: transmission hypotheses built from effect blocks.
 
-The capstan family propagates ``ln T`` of every tendon through the guides with
+The capstan models propagate ``ln T`` of every tendon through the guides with
 exponent ``phi = mu_i(alpha_k) alpha_k`` (paper Eqs. (4)–(6)) and the blocks of
 :mod:`tendon_id.zoo.blocks`:
 
@@ -128,6 +128,11 @@ class CapstanModel(TransmissionModel):
         params = {**self.get_params(), "mu_law": self.mu_law}
         params["blocks"] = tuple(self.block_objects) + tuple(as_block(b) for b in extra)
         return CapstanModel(**params)
+
+    def smooth_part(self) -> CapstanModel:
+        """An unfitted model of this one's law and tendon-independent exponent blocks: its part linear in the law."""
+        blocks = [b for b in self.block_objects if b.stage == "exponent" and not b.per_tendon]
+        return CapstanModel(mu_law=self.mu_law, blocks=blocks, tying=self.tying)
 
     def free_parameters(self) -> list[tuple[str, str, tuple[float, float], float]]:
         """Block parameters calibrated with the law: ``(block, param, bounds, initial)``."""

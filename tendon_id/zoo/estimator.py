@@ -21,7 +21,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from tendon_id.atomic import atomic_write, write_text_atomic
-from tendon_id.errors import ConfigError, TendonIdError
+from tendon_id.checks import check_keys
+from tendon_id.errors import TendonIdError
 
 FORMAT_VERSION = 1
 
@@ -51,10 +52,8 @@ class Estimator(abc.ABC):
 
     def set_params(self, **params: Any) -> Estimator:
         """Change settings; unknown names are an error. Returns ``self``."""
-        known = set(self.param_names())
+        check_keys(params, self.param_names(), what=f"setting of {self.name}")
         for k, v in params.items():
-            if k not in known:
-                raise ConfigError(f"{self.name} has no setting {k!r}; settings: {', '.join(sorted(known))}")
             setattr(self, k, v)
         return self
 

@@ -7,10 +7,8 @@ analytic models never load torch (the neural ones need it).
 
 from __future__ import annotations
 
-import importlib
-
-from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
+from tendon_id.registry import Registry
 from tendon_id.zoo.estimator import Estimator
 
 #: Built-in models: registry name -> ``"module:Class"``, in the order ``names()`` lists them.
@@ -29,37 +27,34 @@ BUILTIN: dict[str, str] = {
     "passage-capstan": "tendon_id.zoo.passage.model:PassageCapstan",
 }
 
-_REGISTRY: dict[str, type[Estimator] | str] = dict(BUILTIN)
+_MODELS = Registry("model", BUILTIN)
 
 
 def register(cls: type[Estimator]) -> type[Estimator]:
     """Add a model class under its ``name`` (usable as a decorator)."""
-    _REGISTRY[cls.name] = cls
-    return cls
+    return _MODELS.register(cls.name, cls)
 
 
 def unregister(name: str) -> None:
     """Remove the model registered as ``name`` (a built-in one comes back as it was)."""
-    if name in BUILTIN:
-        _REGISTRY[name] = BUILTIN[name]
-    else:
-        _REGISTRY.pop(check_choice("model", name, _REGISTRY), None)
+    _MODELS.unregister(name)
 
 
 def names() -> list[str]:
     """Registered model names, in registration order (imports no model)."""
-    return list(_REGISTRY)
+    return _MODELS.names()
 
 
 def names_of(family: type[Estimator]) -> list[str]:
     """Registered names whose class is ``family`` or derives from it.
 
     Built-in models are only imported from ``family``'s own module (listing the capstan
-    family does not load torch); classes registered with :func:`register` are all checked.
+    models does not load torch); classes registered with :func:`register` are all checked.
     """
     out = []
-    for name in _REGISTRY:
-        if name in BUILTIN and BUILTIN[name].partition(":")[0] != family.__module__:
+    for name in _MODELS.names():
+        module = _MODELS.builtin_module(name)
+        if module is not None and module != family.__module__:
             continue  # the same answer whether or not that module is loaded yet
         if issubclass(model_class(name), family):
             out.append(name)
@@ -68,11 +63,7 @@ def names_of(family: type[Estimator]) -> list[str]:
 
 def model_class(name: str) -> type[Estimator]:
     """The class registered as ``name``, importing its module on first use."""
-    entry = _REGISTRY[check_choice("model", name, _REGISTRY)]
-    if isinstance(entry, str):
-        module, _, attr = entry.partition(":")
-        entry = _REGISTRY[name] = getattr(importlib.import_module(module), attr)
-    return entry
+    return _MODELS.get(name, "model")
 
 
 def make(name: str, **params) -> Estimator:

@@ -62,7 +62,7 @@ def recording(tmp_path_factory):
         (["fit", "pg-chtc", "--data", "{rec}", "--out", "{blocker}/m"], "tendon_id.zoo.make", "is a file"),
         (["fit", "capstan-simple", "--data", "{rec}", "--out", "{blocker}"], "tendon_id.zoo.make", "not a folder"),
         (["calibrate", "--data", "{rec}", "--posterior", "--out", "{blocker}/c"],
-         "tendon_id.calibration.run.run_calibration", "is a file"),
+         "tendon_id.report.calibration.run_calibration", "is a file"),
         (["identifiability", "--data", "{rec}", "--out", "{blocker}/r.html"],
          "tendon_id.identifiability.analyse", "is a file"),
         (["identifiability", "--data", "{rec}", "--out", "r.html", "--json", "{blocker}/r.json"],
@@ -195,7 +195,7 @@ def test_a_ctrl_c_while_the_model_is_written_is_held_until_both_files_are_whole(
 
 
 def test_ctrl_c_in_the_posterior_keeps_the_calibration_and_names_it(recording, tmp_path, monkeypatch, capsys):
-    import tendon_id.calibration.run as C
+    import tendon_id.report.calibration as C
 
     def sampler(*_args, **_kwargs):
         for i in progress_bar(range(20), desc="posterior", unit="chunk", enable=False):

@@ -149,10 +149,6 @@ class Block(EffectBlock):
         defaults = {f.name: f.default for f in fields(self)}
         return {p: float(defaults[p]) for p in self.param_names}
 
-    def location(self) -> str:
-        """Where the effect sits, for a block that says (a worn guide); else ``""``."""
-        return ""
-
     def settings(self) -> dict:
         """Structural settings that are not fitted parameters (saved with the block)."""
         return {}

@@ -59,14 +59,6 @@ class PassageBlock(EffectBlock):
         """What the diagnosis reports of the block: its effect."""
         return {"effect": self.effect}
 
-    def location(self) -> str:
-        """Where the effect sits: a passage's blocks act on the whole passage."""
-        return ""
-
-    def neutral(self) -> dict[str, float]:
-        """Parameter values that switch the effect off."""
-        return {p: 0.0 for p in self.param_names}
-
     def initial(self, scale: dict) -> dict[str, float]:
         """Where a fit starts the parameters (default: neutral)."""
         return self.neutral()

@@ -44,7 +44,7 @@ def file_splits(train: list, test: list | None, folds: int) -> tuple[list[Split]
             f"held-out files ({len(train)} for fitting, {len(test)} held out)"
         )
     if len(train) < 2:
-        raise ConfigError("cross-validation by file needs two or more files; give held-out files with --test")
+        raise ConfigError("cross-validation by file needs two or more files; give held-out files", param="test")
     k = min(folds, len(train))
     groups = np.array_split(np.arange(len(train)), k)
     splits = [

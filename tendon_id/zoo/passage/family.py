@@ -21,7 +21,6 @@ from tendon_id.zoo.passage import diagnosis
 from tendon_id.zoo.passage.blocks import BLOCKS
 from tendon_id.zoo.passage.fitting import confounded_groups
 from tendon_id.zoo.passage.inputs import PassageInputs
-from tendon_id.zoo.passage.likelihood import passage_likelihood
 
 __all__ = ["PASSAGE", "PassageFamily"]
 
@@ -88,6 +87,9 @@ class PassageFamily(Family):
 
     # ---- posterior and reports ---------------------------------------------------------------
     def likelihood(self, model, data, **options):
+        # emcee and ArviZ load here, not with the family: reading a file or asking --help needs neither.
+        from tendon_id.zoo.passage.likelihood import passage_likelihood
+
         return passage_likelihood(model, data, **options)
 
     def law_models(self) -> list[str]:

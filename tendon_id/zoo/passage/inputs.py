@@ -25,7 +25,7 @@ def as_passages(data: PassageRecording | Sequence[PassageRecording]) -> list[Pas
     if not recs or not all(isinstance(r, PassageRecording) for r in recs):
         got = type(recs[0]).__name__ if recs else "nothing"
         raise ConfigError(
-            f"a passage model reads single-passage recordings (read a bench's files with --mapping), got {got}"
+            f"a passage model reads single-passage recordings (read a bench's files through a mapping), got {got}"
         )
     if len({r.quantity for r in recs}) > 1:
         raise ConfigError("the recordings mix tension and torque passages")

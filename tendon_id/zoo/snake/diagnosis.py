@@ -87,7 +87,8 @@ def make_splits(train: list[Recording], test: list[Recording] | None, geometry, 
     if len(ids) < folds:
         raise ConfigError(
             f"cross-validation by trajectory needs at least {folds} trajectories, the training data has {len(ids)}; "
-            "pass held-out test data (--test) or more trajectories"
+            "give held-out test data or more trajectories",
+            param="test",
         )
     noise = MeasurementNoise.from_recordings(train)
     splits = []

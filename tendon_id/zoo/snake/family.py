@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from tendon_id.calibration.law_posterior import law_likelihood
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.family.protocol import Family
@@ -45,7 +44,7 @@ class SnakeFamily(Family):
         if not isinstance(model, CapstanModel):
             name = getattr(model, "name", type(model).__name__)
             raise ConfigError(
-                f"the diagnosis extends a capstan-family model with effect blocks; {name!r} is not one "
+                f"the diagnosis extends a capstan model with effect blocks; {name!r} is not one "
                 f"(use {', '.join(self.law_models())}, or passage-capstan for a bench)",
                 param="base",
             )
@@ -95,6 +94,9 @@ class SnakeFamily(Family):
 
     # ---- posterior and reports ---------------------------------------------------------------
     def likelihood(self, model, data, **options):
+        # emcee and ArviZ load here, not with the family: reading a file or asking --help needs neither.
+        from tendon_id.calibration.law_posterior import law_likelihood
+
         if not isinstance(model, CapstanModel):
             raise ConfigError(f"the posterior is defined for the capstan models ({', '.join(self.law_models())})")
         return law_likelihood(model, data, **options)

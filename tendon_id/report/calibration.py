@@ -88,7 +88,7 @@ def run_calibration(
     """
     m = calibration_model(model, settings, seed)
     family = m.family
-    recordings = family.recordings(recordings)
+    recordings = family.recordings(recordings, "recordings")
     report = report or (lambda line: None)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

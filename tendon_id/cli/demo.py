@@ -1,0 +1,35 @@
+"""``tendon-id demo``: the main job on the default recipe, in one command."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from tendon_id.atomic import check_writable
+from tendon_id.cli.app import app
+from tendon_id.cli.common import training_warnings
+from tendon_id.progress import stage
+
+
+@app.command()
+def demo(
+    out: Path = typer.Option(Path("out"), "--out", help="Folder for the demo's report."),
+    recipe: str = typer.Option("snake12-paper", "--recipe", help="Recipe to run the demo on."),
+    frames: Optional[int] = typer.Option(
+        None, "--frames", help="Frames per protocol in the summary (default: the demo's small sizes)."
+    ),
+    models: bool = typer.Option(
+        True,
+        "--models/--no-models",
+        help="Train PG-CHTC and PG-CHTC-NS (fast) and calibrate capstan-nonsmooth for the comparison.",
+    ),
+) -> None:
+    """The main job on the default recipe: simulate, compare capstan-nonsmooth and the cascades in OUT/summary.html."""
+    from tendon_id.demo import run_demo
+
+    check_writable(out, "--out", folder=True)
+    with stage("demo"), training_warnings():
+        path = run_demo(out, recipe=recipe, frames=frames, models=models)
+    typer.echo(f"wrote {path}")
