@@ -372,18 +372,8 @@ def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[C
         warmup_s: float = 0.0,
         blocks: Sequence[Block | str] = blocks,
     ):
-        CapstanModel.__init__(
-            self,
-            mu_law=mu_law,
-            blocks=blocks,
-            tying=tying,
-            robot=robot,
-            n_starts=n_starts,
-            seed=seed,
-            xtol_rel=xtol_rel,
-            maxeval=maxeval,
-            warmup_s=warmup_s,
-        )
+        # In CapstanModel's order: mu_law, blocks, tying, robot, n_starts, seed, xtol_rel, maxeval, warmup_s.
+        CapstanModel.__init__(self, mu_law, blocks, tying, robot, n_starts, seed, xtol_rel, maxeval, warmup_s)
 
     cls = type(name.title().replace("-", ""), (CapstanModel,), {"name": name, "__init__": __init__, "__doc__": doc})
     cls.__module__ = __name__
