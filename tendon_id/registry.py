@@ -58,9 +58,6 @@ class Registry:
         """The registered names, in order (imports nothing)."""
         return list(self._entries)
 
-    def __contains__(self, name: object) -> bool:
-        return name in self._entries
-
     def get(self, name: str, param: str = "name") -> Any:
         """The entry ``name`` (ConfigError naming ``param`` and the known names otherwise), imported on first use."""
         entry = self._entries[check_choice(param, name, self._entries, what=self.what)]

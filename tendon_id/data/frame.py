@@ -11,6 +11,7 @@ adds its own columns, checks and summary, and says how a user's files map onto i
 
 from __future__ import annotations
 
+import abc
 import copy
 import math
 import os
@@ -30,7 +31,7 @@ from tendon_id.errors import RecordingError
 __all__ = ["FrameRecording"]
 
 
-class FrameRecording:
+class FrameRecording(abc.ABC):
     """Base of the recordings: the shared accessors (see the module docstring).
 
     A subclass sets ``family`` (``family_named("snake")``: the transmission family this
@@ -185,13 +186,13 @@ class FrameRecording:
     #: The top-level keys of a mapping file that this kind reads (:meth:`mapping_options`).
     mapping_keys: ClassVar[tuple[str, ...]] = ()
 
+    @abc.abstractmethod
     def describe(self) -> dict[str, Any]:
         """A JSON-serialisable description, for ``tendon-id info --json``."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def summary(self, name: str | None = None) -> str:
         """A few aligned lines for ``tendon-id info``; ``name`` is the file shown (default: the source)."""
-        raise NotImplementedError
 
     @classmethod
     def mapping_options(cls, doc: dict, where: str) -> dict[str, Any]:
@@ -200,8 +201,11 @@ class FrameRecording:
 
     @classmethod
     def mapped_signal(cls, column: str, options: dict[str, Any]) -> str | None:
-        """The kind of signal our ``column`` holds (``time``, ``angle``, ``tension``, ``torque``), or None if none."""
-        raise NotImplementedError
+        """The kind of signal our ``column`` holds (``time``, ``angle``, ``tension``, ``torque``), or None if none.
+
+        Default: only the time ``t``; a kind whose recording says no more cannot be read through a mapping.
+        """
+        return "time" if column == "t" else None
 
     @classmethod
     def required_columns(cls, options: dict[str, Any]) -> tuple[str, ...]:

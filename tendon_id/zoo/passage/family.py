@@ -51,9 +51,6 @@ class PassageFamily(Family):
                 f"the diagnosis extends a model with effect blocks; {model.name!r} has none", param="base"
             )
 
-    def effects(self, model) -> set[str]:
-        return set(model.blocks)
-
     def block_values(self, model, block) -> dict[str, float]:
         return {p: model.theta_[f"{block.effect}:{p}"] for p in block.param_names}
 
