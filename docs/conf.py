@@ -1,7 +1,8 @@
 """Sphinx configuration of the tendon-id documentation.
 
 Build with ``make docs`` (``sphinx-build -W --keep-going -b html docs docs/_build/html``):
-warnings are errors.  No extension here needs the network (no intersphinx).
+warnings are errors.  No extension here needs the network (no intersphinx), and the built site
+requests nothing from it: MathJax is bundled (sphinx-mathjax-offline).
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    # MathJax 3 bundled with the docs (copied into _static): equations render offline, no CDN.
+    "sphinx-mathjax-offline",
     "numpydoc",
     "sphinx_gallery.gen_gallery",
 ]

@@ -1,25 +1,25 @@
-"""Self-contained HTML pages: figures are embedded as base64 PNG, so a page opens offline."""
+"""Self-contained HTML pages, rendered with Jinja2 from one base layout (``templates/base.html.j2``).
+
+Figures are embedded as base64 PNG and the style is inline, so a page opens offline and has no
+script. A page is built section by section; what the reader must know first (the verdict, how far
+to trust it, the simulator's truth beside the finding, any warning that changes how the numbers
+read) goes into :meth:`HtmlPage.lead`, which the layout places under the title whatever the order
+of the calls.
+"""
 
 from __future__ import annotations
 
 import base64
-import html
 import io
 import os
+import re
+from functools import lru_cache
 from pathlib import Path
 
 from tendon_id.atomic import write_text_atomic
 
-_STYLE = """
-body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;\
-margin:2em auto;padding:0 1em;color:#1d2330}
-h1{font-size:1.6em;margin-bottom:.2em} h2{font-size:1.25em;margin-top:1.6em;border-bottom:1px solid #dde}
-table{border-collapse:collapse;margin:.6em 0} td,th{border:1px solid #ccd;padding:.25em .6em;text-align:right}
-th{background:#f2f4f8} td:first-child,th:first-child{text-align:left}
-figure{margin:1em 0} figcaption{color:#555;font-size:.9em} img{max-width:100%}
-.note{color:#555;font-size:.9em}
-.warning{color:#8a1c00;background:#fff1ec;border-left:4px solid #d9480f;padding:.4em .7em}
-"""
+#: Classes a lead sentence may take: the finding, the simulator's truth beside it, a warning, context.
+LEAD_TONES = ("verdict", "truth", "warning", "plain")
 
 
 def pyplot():
@@ -46,44 +46,120 @@ def figure_to_base64(fig) -> str:
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-class HtmlPage:
-    """Builds a single self-contained HTML page section by section."""
+@lru_cache(maxsize=1)
+def _environment():
+    # Jinja2 is torch's dependency too, so it is always installed; imported on first render.
+    import jinja2
 
-    def __init__(self, title: str):
+    return jinja2.Environment(
+        loader=jinja2.PackageLoader("tendon_id.report", "templates"),
+        autoescape=True,  # every value is text, never markup
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+        undefined=jinja2.StrictUndefined,
+    )
+
+
+def _version() -> str:
+    from tendon_id import __version__
+
+    return __version__
+
+
+class HtmlPage:
+    """A single self-contained HTML page, built section by section.
+
+    Parameters
+    ----------
+    title : str
+        The page's title (``<title>`` and ``<h1>``).
+    subtitle : str, optional
+        One line under the title: what the page is about (the data, the model).
+    made_by : str, optional
+        The command that made the page, in its footer.
+    contents : bool
+        A line of links to the page's second-level headings under the lead.
+    """
+
+    def __init__(self, title: str, subtitle: str | None = None, made_by: str | None = None, contents: bool = False):
         self.title = title
-        self._parts: list[str] = []
+        self.subtitle = subtitle
+        self.made_by = made_by
+        self.contents = contents
+        self._lead: list[dict] = []
+        self._sections: list[dict] = []
+
+    def lead(self, text: str, tone: str = "plain") -> None:
+        """A sentence for the box under the title: what the reader must know before any number.
+
+        Parameters
+        ----------
+        text : str
+            One or two plain sentences.
+        tone : {"verdict", "truth", "warning", "plain"}
+            ``verdict``: the finding and how far to trust it; ``truth``: the simulator's truth
+            beside it; ``warning``: something that changes how the numbers below read.
+        """
+        if tone not in LEAD_TONES:
+            raise ValueError(f"tone must be one of {', '.join(LEAD_TONES)}, got {tone!r}")
+        self._lead.append({"text": text, "cls": tone})
+
+    @property
+    def lead_text(self) -> list[str]:
+        """The lead's sentences, in order (what the first screen says)."""
+        return [s["text"] for s in self._lead]
 
     def heading(self, text: str, level: int = 2) -> None:
-        self._parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
+        anchor = re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-") if level == 2 else None
+        self._sections.append({"kind": "heading", "text": text, "level": level, "anchor": anchor})
 
     def paragraph(self, text: str, cls: str | None = None) -> None:
-        c = f' class="{cls}"' if cls else ""
-        self._parts.append(f"<p{c}>{html.escape(text)}</p>")
+        self._sections.append({"kind": "paragraph", "text": text, "cls": cls})
 
     def link(self, text: str, href: str, before: str = "", after: str = "") -> None:
         """A paragraph with one link (a relative ``href`` keeps a report folder movable)."""
-        self._parts.append(
-            f'<p>{html.escape(before)}<a href="{html.escape(href, quote=True)}">{html.escape(text)}</a>'
-            f"{html.escape(after)}</p>"
-        )
+        self._sections.append({"kind": "link", "text": text, "href": href, "before": before, "after": after})
 
-    def table(self, header: list[str], rows: list[list[object]]) -> None:
-        head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
-        body = "".join("<tr>" + "".join(f"<td>{html.escape(_fmt(v))}</td>" for v in row) + "</tr>" for row in rows)
-        self._parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+    def table(
+        self, header: list[str], rows: list[list[object]], caption: str | None = None, collapsed: str | None = None
+    ) -> None:
+        """A table; numbers show 4 significant digits.
+
+        Parameters
+        ----------
+        caption : str, optional
+            A line above the table.
+        collapsed : str, optional
+            Fold the table behind this summary line (a reference table the reader opens on demand).
+        """
+        self._sections.append(
+            {
+                "kind": "table",
+                "header": [str(h) for h in header],
+                "rows": [[_fmt(v) for v in row] for row in rows],
+                "caption": caption,
+                "collapsed": collapsed,
+            }
+        )
 
     def figure(self, fig, caption: str) -> None:
-        data = figure_to_base64(fig)
-        self._parts.append(
-            f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}"/>'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
-        )
+        self._sections.append({"kind": "figure", "data": figure_to_base64(fig), "caption": caption})
 
     def render(self) -> str:
+        contents = [s for s in self._sections if s["kind"] == "heading" and s["anchor"]] if self.contents else []
         return (
-            '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
-            f"<title>{html.escape(self.title)}</title><style>{_STYLE}</style></head><body>"
-            f"<h1>{html.escape(self.title)}</h1>" + "\n".join(self._parts) + "</body></html>\n"
+            _environment()
+            .get_template("page.html.j2")
+            .render(
+                title=self.title,
+                subtitle=self.subtitle,
+                made_by=self.made_by,
+                version=_version(),
+                lead=self._lead,
+                sections=self._sections,
+                contents=contents,
+            )
         )
 
     def write(self, path: str | os.PathLike) -> Path:
