@@ -19,6 +19,9 @@ from tendon_id.sim import Recipe, parse_effect_names, simulate
 
 #: The recipe that ``tendon-id demo`` and the docs use when none is named.
 DEFAULT_RECIPE = "snake12-paper"
+#: Part of every cache key: bump it when the simulator writes different content for the same recipe
+#: (2: the metadata states the recipe's ``session``), so a stale cached recording is never read back.
+SIMULATION_REVISION = 2
 
 
 def recipe_dir() -> Path:
@@ -123,6 +126,7 @@ def load(
             "effects": effects,
             "frames": frames,
             "version": __version__,
+            "revision": SIMULATION_REVISION,
         },
         sort_keys=True,
     )

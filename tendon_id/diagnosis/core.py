@@ -208,7 +208,20 @@ def diagnose(
         model=run.score.fits[0].model,
         seconds=time.perf_counter() - t0,
         unit=unit,
+        truth=simulator_truth(train_recs[0]),
     )
+
+
+#: The metadata keys in which a simulated recording states its truth (:doc:`/guide/simulator`).
+TRUTH_KEYS = ("recipe", "effects", "friction_truth", "session")
+
+
+def simulator_truth(rec) -> dict | None:
+    """What the simulator put into ``rec`` (its recipe, law and effects), or None for real data."""
+    meta = getattr(rec, "meta", None) or {}
+    if meta.get("friction_truth") is None:
+        return None
+    return {k: meta[k] for k in TRUTH_KEYS if k in meta}
 
 
 def eligible(family, effect: str, present: set) -> bool:

@@ -156,6 +156,9 @@ class DiagnosisResult:
     seconds : float
     unit : str
         Unit of the errors: ``N``, or ``N m`` for a torque passage.
+    truth : dict or None
+        On simulated data, what the simulator put in (``recipe``, ``effects``, ``friction_truth``,
+        ``session``), so the report can set the finding beside it; None for real data.
     """
 
     base: str
@@ -181,6 +184,7 @@ class DiagnosisResult:
     plots: dict = field(default_factory=dict, repr=False)
     seconds: float = 0.0
     unit: str = "N"
+    truth: dict | None = None
 
     @classmethod
     def assemble(cls, *, residual, floor, library, ranked: list, rng, heldout_frames: int, **fields) -> DiagnosisResult:
@@ -243,6 +247,7 @@ class DiagnosisResult:
             "warnings": list(self.warnings),
             "seconds": self.seconds,
             "unit": self.unit,
+            "truth": self.truth,
         }
 
     def top_strata(self, n: int = 5) -> list[Stratum]:

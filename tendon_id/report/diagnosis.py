@@ -9,6 +9,7 @@ import numpy as np
 
 from tendon_id.atomic import write_json_atomic
 from tendon_id.diagnosis.result import DiagnosisResult
+from tendon_id.report.diagnosis_lead import lead_sentences, truth_rows
 from tendon_id.report.html import HtmlPage, pyplot
 
 
@@ -71,9 +72,19 @@ def residual_figure(result: DiagnosisResult):
 
 
 def report_page(result: DiagnosisResult) -> HtmlPage:
-    page = HtmlPage(f"Sim-to-real gap diagnosis of {result.base}")
+    page = HtmlPage(
+        f"Sim-to-real gap diagnosis of {result.base}",
+        subtitle="Where the model's held-out error lies, which unmodelled effect explains it, and how far it shrinks.",
+        made_by="tendon-id diagnose",
+        contents=True,
+    )
     u = result.unit
-    page.paragraph(f"Verdict: {result.verdict.text}.")
+    for text, tone in lead_sentences(result):
+        page.lead(text, tone)
+    if result.truth is not None:
+        page.heading("The finding beside the simulator's truth")
+        page.table(["effect", "in the truth", "in the base", "gap closed as a candidate", "named"], truth_rows(result))
+    page.heading("The gap")
     page.paragraph(
         f"Held-out RMSE of the base {result.base_rmse:.3g} {u} against a noise floor of "
         f"{result.noise_floor:.3g} {u} (upper quantile: {result.noise_floor_upper:.3g} {u}; "
@@ -84,7 +95,7 @@ def report_page(result: DiagnosisResult) -> HtmlPage:
         cls="note",
     )
     for w in result.warnings:
-        page.paragraph(f"Warning: {w}", cls="note")
+        page.paragraph(f"Warning: {w}", cls="warning")
     page.heading("Where")
     page.figure(gap_map_figure(result), "Share of the held-out squared error and of the frames, per stratum.")
     page.table(

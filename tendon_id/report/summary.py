@@ -15,7 +15,7 @@ def wrap_coverage_figure(recordings: Sequence[Recording]):
     """Box plot of the backbone wrap [deg] each guide saw, one colour per protocol."""
     plt = pyplot()
     n = recordings[0].n_modules
-    fig, ax = plt.subplots(figsize=(9, 3.4))
+    fig, ax = plt.subplots(figsize=(9, 3.4), layout="constrained")
     width = 0.8 / len(recordings)
     for r_i, rec in enumerate(recordings):
         alpha0 = (rec.meta.get("robot") or {}).get("alpha_0", RobotGeometry().alpha_0)
@@ -37,38 +37,48 @@ def wrap_coverage_figure(recordings: Sequence[Recording]):
 
 
 def tension_trace_figure(rec: Recording, trajectory: str | None = None):
-    """Actuator-side, intermediate truth and terminal tensions of one trajectory, per tendon."""
+    """Actuator side against joint side of the same set, for three sets along the chain, one trajectory.
+
+    Each panel is one set ``j``: its actuator-side tensions ``T[1, j]`` (solid) and its joint-side
+    tensions ``T[j, j]`` (dashed: the simulator's truth, or the measured terminal tension for the
+    terminal set), so the drop between the two is that set's transmission loss.
+    """
     plt = pyplot()
     traj = trajectory or rec.trajectories[0]
     mask = rec.trajectory_ids == traj
     t = rec.time[mask]
     n = rec.n_modules
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2), sharey=True)
-    truth = rec.joint_truth
-    for i, ax in enumerate(axes):
-        ax.plot(t, rec.actuator[mask, n - 1, i], color="k", lw=1.2, label=f"actuator T[1,{n}]")
-        if truth is not None:
-            for j in (n // 3, 2 * n // 3):
-                ax.plot(t, truth[mask, j - 1, i], lw=0.9, alpha=0.8, label=f"joint {j} truth T[{j},{j}]")
-        ax.plot(t, rec.terminal[mask, i], color="C3", lw=1.2, label=f"terminal T[{n},{n}]")
-        ax.set_title(f"tendon {i + 1}")
+    sets = (n // 3, 2 * n // 3, n) if rec.joint_truth is not None else (n,)
+    fig, axes = plt.subplots(1, len(sets), figsize=(11, 3.4), sharey=True, layout="constrained", squeeze=False)
+    for ax, j in zip(axes[0], sets):
+        joint = rec.terminal[mask] if j == n else rec.joint_truth[mask, j - 1]
+        for i in range(3):
+            ax.plot(t, rec.actuator[mask, j - 1, i], color=f"C{i}", lw=1.2, label=f"tendon {i + 1}: actuator T[1,{j}]")
+            ax.plot(t, joint[:, i], color=f"C{i}", lw=1.0, ls="--", label=f"tendon {i + 1}: joint side T[{j},{j}]")
+        ax.set_title(f"set {j}" + (" (terminal, measured)" if j == n else " (joint side: simulator truth)"), fontsize=9)
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("tension [N]")
-    axes[-1].legend(fontsize=7)
-    fig.suptitle(f"trajectory {traj}", fontsize=10)
+    axes[0][0].set_ylabel("tension [N]")
+    axes[0][-1].legend(fontsize=6)
+    fig.suptitle(f"trajectory {traj}: solid actuator side, dashed joint side of the same set", fontsize=10)
     return fig
+
+
+def above_no_loss(rec: Recording) -> float:
+    """Share of frames whose terminal joint-side tension exceeds its actuator-side tension [-]."""
+    n = rec.n_modules
+    return float(np.mean(rec.terminal > rec.actuator[:, n - 1]))
 
 
 def actuator_vs_terminal_figure(rec: Recording):
     """Terminal joint-side against actuator-side tension of the terminal set, with the no-loss line."""
     plt = pyplot()
     n = rec.n_modules
-    fig, ax = plt.subplots(figsize=(4.6, 4.2))
+    fig, ax = plt.subplots(figsize=(4.6, 4.2), layout="constrained")
     for i in range(3):
         ax.plot(rec.actuator[:, n - 1, i], rec.terminal[:, i], ".", ms=1.5, alpha=0.4, label=f"tendon {i + 1}")
     hi = float(np.nanmax(rec.actuator[:, n - 1]))
-    ax.plot([0, hi], [0, hi], "k--", lw=1, label="no loss (proximal)")
+    ax.plot([0, hi], [0, hi], "k--", lw=1, label="joint side = actuator side")
     ax.set_xlabel(f"actuator side T[1,{n}] [N]")
     ax.set_ylabel(f"terminal joint side T[{n},{n}] [N]")
     ax.legend(fontsize=7, markerscale=6)
@@ -76,10 +86,19 @@ def actuator_vs_terminal_figure(rec: Recording):
     return fig
 
 
-def summary_page(recordings: Sequence[Recording], title: str = "tendon-id recording summary") -> HtmlPage:
-    """A page with a table of the recordings and the three standard figures."""
-    page = HtmlPage(title)
-    page.heading("Recordings")
+def actuator_vs_terminal_caption(rec: Recording) -> str:
+    """The caption of :func:`actuator_vs_terminal_figure`, with the share of frames above the line measured."""
+    return (
+        "Terminal joint side against actuator side for the terminal set. Below the dashed line the joint side "
+        "carries less than the actuator side: friction at the guides opposes a tendon being pulled (loading). "
+        f"{above_no_loss(rec):.0%} of the frames lie above it: while a tendon is released, friction reverses and "
+        "holds tension at the joint side (the hysteresis the nonsmooth models carry as memory)."
+    )
+
+
+def add_recordings(page: HtmlPage, recordings: Sequence[Recording], heading: str = "The data") -> None:
+    """Append the recordings' table, their wrap coverage, and per protocol a trace and the actuator/terminal plot."""
+    page.heading(heading)
     rows = []
     for rec in recordings:
         s = rec.describe()
@@ -108,19 +127,22 @@ def summary_page(recordings: Sequence[Recording], title: str = "tendon-id record
         ],
         rows,
     )
-    page.heading("Wrap coverage per guide")
+    page.heading("Wrap coverage per guide", level=3)
     page.figure(
         wrap_coverage_figure(recordings), "Backbone wrap alpha_k (paper Eq. (3)) seen by each guide, per protocol."
     )
     for rec in recordings:
-        page.heading(f"Tension traces: {rec.protocol}")
+        page.heading(f"Tension traces: {rec.protocol}", level=3)
         page.figure(
             tension_trace_figure(rec),
-            "Actuator-side, intermediate joint-side truth and terminal joint-side tensions of one trajectory.",
+            "Each panel is one set: its actuator-side tensions (solid) and its own joint-side tensions (dashed), "
+            "so the gap between a solid and a dashed line of one colour is that set's transmission loss.",
         )
-        page.figure(
-            actuator_vs_terminal_figure(rec),
-            "Terminal joint side against actuator side for the terminal set: "
-            "the gap below the dashed line is the transmission loss.",
-        )
+        page.figure(actuator_vs_terminal_figure(rec), actuator_vs_terminal_caption(rec))
+
+
+def summary_page(recordings: Sequence[Recording], title: str = "tendon-id recording summary") -> HtmlPage:
+    """A page with the recordings' table and their figures (:func:`add_recordings`)."""
+    page = HtmlPage(title)
+    add_recordings(page, recordings, heading="Recordings")
     return page

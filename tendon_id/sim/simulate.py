@@ -221,6 +221,8 @@ def simulate(
         "effects": list(eff.enabled),
         "effect_params": eff.to_dict()["params"],
         "friction_truth": {"A": list(recipe.friction.A), "B": list(recipe.friction.B)},
+        # Whether each logged trajectory inherits the hysteresis and lag state of unlogged motion before it.
+        "session": recipe.session,
         "sensors": {
             "noise_n": recipe.sensors.noise_n,
             "range_n": recipe.sensors.range_n,

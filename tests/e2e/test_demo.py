@@ -1,5 +1,6 @@
 """End to end: the demo builds the default recipe and writes a self-contained summary page."""
 
+import html
 import re
 
 from tendon_id.cli import main
@@ -16,6 +17,9 @@ def test_demo_writes_a_self_contained_summary(tmp_path, capsys):
     for name in ("terminal-only", "posterior-3", "posterior-6", "planned-paths"):
         assert name in page
     assert "http://" not in page and "https://" not in page
+    # without models, the first screen says so and states the simulator's truth
+    lead = html.unescape(page.split('class="lead"')[1].split("</section>")[0])
+    assert "no model was trained" in lead and "The simulator's truth (snake12-paper)" in lead
 
 
 def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypatch):
@@ -42,3 +46,11 @@ def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypa
     # each learned cascade's guard: its validation RMSE against its calibrated prior's
     assert page.count("for its calibrated prior capstan-nonsmooth") == 2
     assert len(re.findall(r'src="data:image/png;base64,', page)) == 1 + 2 * 4 + 2
+    # the result first: the verdict and the truth in the lead, then the comparison, and the data last
+    lead = html.unescape(page.split('class="lead"')[1].split("</section>")[0])
+    assert "estimates the unmeasured intermediate joint-side tensions best" in lead and "simulator's truth" in lead
+    assert page.index("Result: the estimators") < page.index("Sim-to-real gap") < page.index("The simulated data")
+    assert "Its verdict:" in page  # the diagnosis's finding, beside its link
+    for name in ("diagnosis", "closed_loop"):
+        other = (tmp_path / "out" / f"{name}.html").read_text()
+        assert 'class="lead"' in other.split("<h2")[0], name  # each page opens with what to know

@@ -1,0 +1,68 @@
+"""The simulator's truth in words, for a page to set beside its finding (the reader can then judge it).
+
+A simulated recording carries its truth in its metadata: the capstan law's ``friction_truth``
+``(A_i, B_i)`` per tendon (paper Eq. (5)) and the unmodelled ``effects`` that were on
+(:doc:`/guide/simulator`). Real data has neither, and every function here returns ``None`` then.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+#: Plain words for the simulator's effects (their blocks are documented in :doc:`/guide/simulator`).
+EFFECT_WORDS = {
+    "contact": "the hole's contact gate",
+    "stick_slip": "stick–slip (the play operator's hysteresis)",
+    "viscoelastic": "viscoelastic lag",
+    "velocity_friction": "speed-dependent friction",
+    "bending_stiffness": "bending stiffness",
+    "guide_wear": "worn guides",
+    "per_tendon_wrap": "per-tendon wraps",
+    "sensor_bias": "load-cell bias",
+}
+
+
+#: Effects whose state (hysteresis, lag) a trajectory inherits from the motion before it.
+STATEFUL = frozenset({"stick_slip", "viscoelastic"})
+
+
+def effect_words(names) -> str:
+    """``["contact", "viscoelastic"]`` as "the hole's contact gate and viscoelastic lag"."""
+    words = [EFFECT_WORDS.get(n, n.replace("_", " ")) for n in names]
+    if not words:
+        return "none"
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+def truth_mu0(meta: Mapping) -> np.ndarray | None:
+    """The truth's ``mu(0) = A_i + B_i`` per tendon [-], or None for real data."""
+    law = meta.get("friction_truth") if meta else None
+    if not law:
+        return None
+    return np.asarray(law["A"], dtype=float) + np.asarray(law["B"], dtype=float)
+
+
+def truth_effects(meta: Mapping) -> list[str] | None:
+    """The unmodelled effects that were on in the simulation, or None for real data."""
+    if not meta or meta.get("friction_truth") is None:
+        return None
+    return list(meta.get("effects") or [])
+
+
+def truth_sentence(meta: Mapping) -> str | None:
+    """One sentence of what the simulator's truth is, or None for real data."""
+    mu0 = truth_mu0(meta)
+    if mu0 is None:
+        return None
+    effects = truth_effects(meta)
+    recipe = meta.get("recipe")
+    text = (
+        f"The simulator's truth{f' ({recipe})' if recipe else ''}: capstan friction mu(0) = A + B = "
+        f"{', '.join(f'{m:.2f}' for m in mu0)} per tendon, with {effect_words(effects)}"
+        + ("" if effects else " and no unmodelled effect")
+    )
+    if meta.get("session") == "continuous" and effects and set(effects) & STATEFUL:
+        text += "; each logged trajectory starts in the state that the unlogged motion before it left"
+    return text + "."
