@@ -40,6 +40,7 @@ GENERIC = (
     "tendon_id.data.frame",
     "tendon_id.data.mapping",
     "tendon_id.report.diagnosis",
+    "tendon_id.report.diagnosis_lead",
 )
 #: What knows no family and every layer may use.
 FOUNDATION = (
@@ -57,6 +58,7 @@ FOUNDATION = (
     "tendon_id.data.select",
     "tendon_id.data.units",
     "tendon_id.report.html",
+    "tendon_id.report.truth",
 )
 #: Where the built-in families are registered (their entry modules must be family modules).
 FAMILY_REGISTRY = "tendon_id/family/registry.py"

@@ -62,9 +62,13 @@ def _environment():
 
 
 def _version() -> str:
-    from tendon_id import __version__
+    # From the installed distribution, not ``tendon_id.__version__``: the foundation imports no package face.
+    from importlib.metadata import PackageNotFoundError, version
 
-    return __version__
+    try:
+        return version("tendon-id")
+    except PackageNotFoundError:  # a checkout on sys.path without an install
+        return "(not installed)"
 
 
 class HtmlPage:
