@@ -50,9 +50,39 @@ def regime_heatmap(result: dict):
     return fig
 
 
+def lead_sentences(result: dict) -> list[tuple[str, str]]:
+    """The map's first screen: in how many regimes learning wins at the intermediate joints, and how far to trust it."""
+    settings, columns, ratio = _grid(result, "joints")
+    out = []
+    for k, column in enumerate(columns):
+        col = ratio[:, k]
+        wins = [s for s, r in zip(settings, col) if r < 1]
+        name = column.replace("\n", " (") + " session)"
+        out.append(
+            (
+                f"{name} beats calibrated capstan-nonsmooth at the intermediate joints in {len(wins)} of "
+                f"{len(settings)} regimes (RMSE ratio {np.nanmin(col):.2f} to {np.nanmax(col):.2f}).",
+                "verdict",
+            )
+        )
+    out.append(
+        (
+            f"How far to trust it: one seed ({result['seed']}) and the {result['preset']} preset per cell, so a ratio "
+            "a few percent from 1 may not hold over seeds.",
+            "plain",
+        )
+    )
+    return out
+
+
 def write_regimes_page(result: dict, path: str | os.PathLike) -> Path:
     """Write the regime map as a self-contained HTML page; returns its path."""
-    page = HtmlPage(f"Regime map: when does learning beat calibrated physics? ({result['recipe']})")
+    page = HtmlPage(
+        f"Regime map: when does learning beat calibrated physics? ({result['recipe']})",
+        made_by="tendon-id benchmark regimes --out PAGE",
+    )
+    for text, tone in lead_sentences(result):
+        page.lead(text, tone)
     page.paragraph(
         "Each row is the recipe with one physical setting changed, each column a learned cascade in a session "
         "whose logs start where unlogged motion left them (continuous) or from forward slip (fresh). A cell is "
@@ -87,6 +117,13 @@ def write_regimes_page(result: dict, path: str | os.PathLike) -> Path:
         if (g := m.get("guard")) and g.get("worse")
     ]
     if guards:
+        n_cells = len(result["cells"]) * len(LEARNED)
+        page.lead(
+            f"In {len(guards)} of {n_cells} cells a learned cascade validated worse than its own calibrated prior "
+            "(the prior guard fired): there its ratio says more about the training than about the physics. "
+            "They are listed under the table.",
+            tone="warning",
+        )
         page.paragraph(
             "The prior guard fired (validation RMSE worse than the calibrated prior's) in: " + "; ".join(guards) + ".",
             cls="warning",
@@ -95,7 +132,7 @@ def write_regimes_page(result: dict, path: str | os.PathLike) -> Path:
     page.paragraph(
         f"Preset {result['preset']}, seed {result['seed']}, {len(result['cells'])} regimes, "
         f"{f.get('train', 0)} training and {f.get('val', 0)} validation frames each, built in "
-        f"{result['seconds']:.0f} s. Made by: tendon-id benchmark regimes --out PAGE.",
+        f"{result['seconds']:.0f} s.",
         cls="note",
     )
     return page.write(path)
