@@ -9,7 +9,9 @@ weak prior that keeps the determinant finite in the null space (``s`` =
 "Optimum experimental designs", ch. 10).  The expected shrinkage of the band is
 the linearised one: the mean over frames and intermediate joints of
 ``sqrt(x_l^T (F + F_0)^-1 x_l)`` before and after.  Where intermediate truth exists,
-:func:`measure_advice` checks the advice by adding each joint's (noisy) label and sampling again.
+:func:`measure_advice` checks the advice against it by adding each joint's (noisy) label and
+sampling again, and :func:`judge_advice` says whether the check confirms the linearised advice
+(rule: :data:`CONFIRM_RULE`); without truth the advice stays unchecked.
 """
 
 from __future__ import annotations
@@ -92,16 +94,17 @@ def excite_joints(per_guide_sd_mu0: NDArray, max_joints: int = 3) -> list[int]:
 
 
 def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings: StudySettings) -> list[dict]:
-    """Measured band after adding each intermediate joint's label (truth plus load-cell noise).
+    """The advice checked against the truth: each candidate joint's label added, the law re-fitted and re-sampled.
 
-    For each candidate joint ``j`` the per-guide law is sampled again with the extra
-    labels ``ln T[1, j] - ln(T_true[j, j] + noise)``, and the mean band width over the
-    intermediate joints is measured with the same sampler and frames as the report.
+    For each candidate joint ``j`` the per-guide law is fitted and sampled again with the
+    extra labels ``ln T[1, j] - ln(T_true[j, j] + noise)``, and the band it gives over the
+    intermediate joints is scored against the truth with the same sampler and frames as the
+    report: its mean width, the share of the truth inside it, and its median's RMSE.
 
     Parameters
     ----------
     study : TyingStudy
-        The per-guide study (its problem, and residual noise per tendon [N]).
+        The per-guide study (its problem, its band, and residual noise per tendon [N]).
     truth : ndarray, shape (T, N, 3)
         Joint-side truth [N]; read here only, never by a fit of the study itself.
     frames : ndarray of int
@@ -112,7 +115,10 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
     Returns
     -------
     list of dict
-        ``{"joint", "band_width_mean"}`` [N] per joint ``2..N-1``.
+        Per joint ``2..N-1``: ``joint``; ``band_width_mean`` [N] and ``measured_shrinkage`` (the
+        fraction of the study's own band width removed, the measured counterpart of
+        :func:`instrument_scores`' ``expected_shrinkage``); ``truth_coverage`` and ``rmse_n`` [N]
+        of the band against the truth.
     """
     problem = study.problem
     rng = np.random.default_rng(settings.seed + 1000)
@@ -139,8 +145,75 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
             thetas.append(constrained_lstsq(X_all, y_all, layout, 1e-10).x)
     # Every candidate's three laws in one batch of samplers: one stream, seeded by the study's seed.
     draws = settings.sample(Ms, bs, C, d, thetas, layout, settings.seed)
+    base = study.band.mean_width()
     out = []
     for n, j in enumerate(joints):
         band = ambiguity_band(problem, draws[3 * n : 3 * n + 3], frames, seed=settings.seed)
-        out.append({"joint": j, "band_width_mean": band.mean_width()})
+        scores = band.scores(truth)
+        shrink = float(1.0 - scores["band_width_mean"] / base) if base > 0 else 0.0
+        out.append({"joint": j, **scores, "measured_shrinkage": shrink})
     return out
+
+
+#: The check confirms the linearised advice when the advised joint's measured shrinkage is at least
+#: this fraction of its expected one (and its estimate is no further from the truth).
+CONFIRM_FRACTION = 0.5
+
+#: The rule of :func:`judge_advice`, in words (the report and the JSON quote it).
+CONFIRM_RULE = (
+    f"the advice is confirmed when the measured band shrinkage at the advised joint is at least "
+    f"{CONFIRM_FRACTION:g} of the linearised expectation and, with that joint's label, the estimate's "
+    "RMSE against the simulator truth at the intermediate joints is no larger than without it"
+)
+
+
+def judge_advice(candidates: list[dict], check: list[dict] | None, baseline: dict | None) -> dict:
+    """Whether the check against the truth confirms the linearised (D-optimal) advice.
+
+    Parameters
+    ----------
+    candidates : list of dict
+        :func:`instrument_scores`' output.
+    check : list of dict or None
+        :func:`measure_advice`' output; None without intermediate truth.
+    baseline : dict or None
+        :meth:`~tendon_id.identifiability.band.Band.scores` of the study's own band (no added label).
+
+    Returns
+    -------
+    dict
+        ``status`` (``"confirmed"``, ``"not confirmed"`` or ``"unchecked"``), ``linearised_joint``
+        (the D-optimal one), ``expected_shrinkage`` there, ``recommended_joint`` (the linearised
+        joint unless the check contradicts it, then None), ``measured_best_joint`` (the largest
+        measured shrinkage that leaves the estimate no further from the truth, else the largest
+        shrinkage), ``measured_shrinkage`` and ``rmse_n`` at the advised and at the best joint, and ``rule``.
+    """
+    advised = max(candidates, key=lambda c: c["log_det"])
+    out = {
+        "linearised_joint": int(advised["joint"]),
+        "expected_shrinkage": float(advised["expected_shrinkage"]),
+        "rule": CONFIRM_RULE,
+        "confirm_fraction": CONFIRM_FRACTION,
+    }
+    if not check:
+        return {**out, "status": "unchecked", "recommended_joint": int(advised["joint"]), "measured_best_joint": None}
+    by_joint = {c["joint"]: c for c in check}
+    at = by_joint[advised["joint"]]
+    rmse0 = None if baseline is None else baseline.get("rmse_n")
+    closer = lambda c: rmse0 is None or c["rmse_n"] is None or c["rmse_n"] <= rmse0  # noqa: E731
+    confirmed = at["measured_shrinkage"] >= CONFIRM_FRACTION * advised["expected_shrinkage"] and closer(at)
+    pool = [c for c in check if closer(c)] or check
+    best = max(pool, key=lambda c: c["measured_shrinkage"])
+    return {
+        **out,
+        "status": "confirmed" if confirmed else "not confirmed",
+        "recommended_joint": int(advised["joint"]) if confirmed else None,
+        "measured_shrinkage": float(at["measured_shrinkage"]),
+        "rmse_n": at["rmse_n"],
+        "measured_best_joint": int(best["joint"]),
+        "measured_best_shrinkage": float(best["measured_shrinkage"]),
+        "measured_best_rmse_n": best["rmse_n"],
+        "measured_best_expected_shrinkage": float(
+            next(c["expected_shrinkage"] for c in candidates if c["joint"] == best["joint"])
+        ),
+    }

@@ -19,13 +19,15 @@ from numpy.typing import NDArray
 
 from tendon_id.calibration.posterior import sample_posterior
 from tendon_id.data import Recording
-from tendon_id.identifiability.advice import excite_joints, instrument_scores, measure_advice
+from tendon_id.identifiability.advice import excite_joints, instrument_scores, judge_advice, measure_advice
 from tendon_id.identifiability.band import ambiguity_band, band_frames
 from tendon_id.identifiability.excitation import excitation
 from tendon_id.identifiability.learned import learned_comparison
 from tendon_id.identifiability.problem import TYINGS, IdentifiabilityProblem
 from tendon_id.identifiability.settings import MODELS, StudySettings
 from tendon_id.identifiability.study import TyingStudy, study_tying
+from tendon_id.identifiability.summary import lead_sentences
+from tendon_id.identifiability.truth import data_name, truth_law
 from tendon_id.progress import progress_bar
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
@@ -52,11 +54,13 @@ class IdentifiabilityResult:
     """The single result of :func:`analyse`; :meth:`to_dict` gives the JSON of :doc:`/guide/identifiability` (a floor).
 
     ``truth`` holds the data's intermediate joint-side truth (T, N, 3) where present; it
-    scores the bands and the advice and is never used to fit.
+    scores the bands and the advice and is never used to fit.  ``truth_law`` is the simulator's
+    friction law where the recording's metadata carries it (:func:`~tendon_id.identifiability.truth.truth_law`),
+    shown beside the fitted one and never fitted either.
     """
 
     settings: StudySettings
-    source: str
+    source: str | None
     model_name: str
     protocol: str | None
     n_frames: int
@@ -73,17 +77,29 @@ class IdentifiabilityResult:
     learned: dict | None
     seconds: float
     truth: NDArray | None = field(default=None, repr=False)
+    name: str = "unnamed data"
+    truth_law: dict | None = None
+    advice_baseline: dict | None = None
+
+    @property
+    def advice_verdict(self) -> dict:
+        """Whether the check against the truth confirms the linearised advice (:func:`~.advice.judge_advice`)."""
+        return judge_advice(self.instrument, self.advice_check, self.advice_baseline)
 
     @property
     def misspecification(self) -> dict:
         """Residual noise against the load cells' nominal noise, per tendon (the best tying's)."""
         best = np.minimum(self.studies["tied"].sigma, self.studies["per-guide"].sigma)
         ratio = [float(s / self.noise_n) for s in best]
+        mis = bool(max(ratio) > MISSPECIFIED_RATIO)
         return {
             "residual_sigma_n": [float(s) for s in best],
             "nominal_noise_n": self.noise_n,
             "ratio": ratio,
-            "misspecified": bool(max(ratio) > MISSPECIFIED_RATIO),
+            "threshold_ratio": MISSPECIFIED_RATIO,
+            "misspecified": mis,
+            # How the study's numbers read: a misspecified structure's estimates describe its best fit only.
+            "numbers_describe": "the misspecified fit, not the robot" if mis else "the robot, as far as the data go",
         }
 
     def to_dict(self) -> dict:
@@ -105,6 +121,8 @@ class IdentifiabilityResult:
             "quantiles": [2.5, 97.5],
         }
         return {
+            "name": self.name,
+            "summary": lead_sentences(self),
             "source": self.source,
             "protocol": self.protocol,
             "frames": self.n_frames,
@@ -113,12 +131,16 @@ class IdentifiabilityResult:
             "per_guide": per.to_dict(),
             "bands": bands,
             "misspecification": self.misspecification,
+            "truth": self.truth_law,
             "excitation": self.excitation,
             "advice": {
+                # The linearised (D-optimal) joint; whether the check confirms it is in "verdict".
                 "instrument_joint": self.instrument_joint,
                 "excite_joints": self.excite,
                 "candidates": self.instrument,
                 "check": self.advice_check,
+                "check_baseline": self.advice_baseline,
+                "verdict": self.advice_verdict,
             },
             "emcee": self.emcee,
             "learned": self.learned,
@@ -197,9 +219,10 @@ def analyse(
     scores = instrument_scores(per.problem, per.theta, per.sigma, frames)
     best = max(scores, key=lambda s: s["log_det"])["joint"]
     excite = excite_joints(per.mu0_sd())
-    check = None
+    check, baseline = None, None
     if truth is not None and settings.check_advice:
         check = measure_advice(per, truth, frames, settings)
+        baseline = per.band.scores(truth)
 
     emcee_summary = None
     if settings.emcee:
@@ -213,7 +236,7 @@ def analyse(
         pass
     return IdentifiabilityResult(
         settings=settings,
-        source=str(recs[0].source or "recording"),
+        source=None if recs[0].source is None else str(recs[0].source),
         model_name=base.name,
         protocol=recs[0].protocol,
         n_frames=inputs.n_frames,
@@ -230,6 +253,9 @@ def analyse(
         learned=learned_summary,
         seconds=time.perf_counter() - t0,
         truth=truth,
+        name=data_name(recs),
+        truth_law=truth_law(recs),
+        advice_baseline=baseline,
     )
 
 

@@ -53,6 +53,19 @@ class Band:
         t = truth[self.frames]
         return np.mean((t >= self.lo) & (t <= self.hi), axis=(0, 2))
 
+    def rmse(self, truth: NDArray, joints: slice | None = None) -> float:
+        """RMSE [N] of the band's median against the truth (T, N, 3), intermediate joints ``2..N-1`` by default."""
+        j = slice(1, -1) if joints is None else joints
+        return float(np.sqrt(np.mean((self.median[:, j] - truth[self.frames][:, j]) ** 2)))
+
+    def scores(self, truth: NDArray | None) -> dict:
+        """Mean width [N], and where truth is given its coverage and the median's RMSE [N], at joints ``2..N-1``."""
+        out = {"band_width_mean": self.mean_width(), "truth_coverage": None, "rmse_n": None}
+        if truth is not None:
+            out["truth_coverage"] = float(np.mean(self.coverage(truth)[1:-1]))
+            out["rmse_n"] = self.rmse(truth)
+        return out
+
 
 def band_frames(n_frames: int, max_frames: int, seed: int) -> NDArray[np.int64]:
     """Frames the band is evaluated on: all, or an evenly spread, seeded subset."""

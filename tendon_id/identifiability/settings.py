@@ -36,7 +36,10 @@ class StudySettings:
     emcee : bool
         Also sample the tied posterior with emcee (widths, correlations, ESS) as a cross-check.
     check_advice : bool
-        With intermediate truth present, measure the band after adding each candidate joint's label.
+        With intermediate truth present, check the advice against it: re-fit and re-sample with each
+        candidate joint's label, and score the band's width, coverage and RMSE against the truth
+        (:func:`~tendon_id.identifiability.advice.measure_advice`); without the check the advice is
+        reported as unchecked.
     seed : int
     """
 

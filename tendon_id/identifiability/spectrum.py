@@ -6,6 +6,16 @@ combinations of parameters the data cannot see at all (structural
 non-identifiability); tiny but non-zero eigenvalues are sloppy, practically
 unidentifiable directions (Gutenkunst et al. 2007, "Universally sloppy parameter
 sensitivities in systems biology models").
+
+The parameters ``A``, ``B`` are dimensionless friction coefficients, the design entries are
+wraps in rad, the delta-method weights are in N^2 and ``sigma`` is in N, so ``F`` and its
+eigenvalues are dimensionless (per squared friction coefficient): ``1 / sqrt(eigenvalue)`` is
+the linearised sd of a unit-norm combination of friction coefficients.
+
+An eigen-direction is *well determined* when the linearised sd of its unit-norm combination,
+``1 / sqrt(eigenvalue)``, is at most :data:`WELL_DETERMINED_SD` (the eigenvalue at least
+``1 / WELL_DETERMINED_SD^2``); the other identifiable directions are *sloppy*.  The words give
+each combination with its largest coefficient 1, and its sd as written.
 """
 
 from __future__ import annotations
@@ -19,6 +29,14 @@ from numpy.typing import NDArray
 #: (structural): a held pose repeats exactly the same quantised reading, so the gap is wide.
 RANK_RTOL = 1e-8
 
+#: Largest linearised sd [-] of a well-determined unit-norm combination of friction coefficients:
+#: its 95 % interval (about ±2 sd) is then within ±0.04, a tenth of the friction the paper
+#: identifies, ``mu(0) = A + B`` of 0.38-0.40 (Section IV-B; the default recipe's truth).
+WELL_DETERMINED_SD = 0.02
+
+#: The Fisher eigenvalue [-] of a direction with that sd: well determined at or above it.
+WELL_DETERMINED_EIGENVALUE = 1.0 / WELL_DETERMINED_SD**2
+
 
 @dataclass
 class Spectrum:
@@ -28,7 +46,8 @@ class Spectrum:
     ----------
     names : list of str
     eigenvalues : ndarray
-        Fisher-information eigenvalues, descending [1 / unit^2].
+        Fisher-information eigenvalues, descending [-] (dimensionless: per squared friction
+        coefficient, see the module docstring).
     eigenvectors : ndarray, shape (p, p)
         Columns match ``eigenvalues``.
     rank : int
@@ -38,7 +57,10 @@ class Spectrum:
     words : list of str
         The unidentifiable directions, said in the parameters' own words.
     determined : list of str
-        Well-determined combinations, said in words (best first).
+        Well-determined combinations (eigenvalue at least :data:`WELL_DETERMINED_EIGENVALUE`), said
+        in words, best first.
+    sloppy : list of str
+        Identifiable but sloppy combinations (sd above it), said in words, sloppiest first.
     """
 
     names: list[str]
@@ -49,6 +71,7 @@ class Spectrum:
     sd: NDArray[np.float64]
     words: list[str] = field(default_factory=list)
     determined: list[str] = field(default_factory=list)
+    sloppy: list[str] = field(default_factory=list)
 
     @property
     def n_params(self) -> int:
@@ -75,6 +98,24 @@ class Spectrum:
         ev, V = self.eigenvalues[: self.rank], self.eigenvectors[:, : self.rank]
         return float(np.sqrt(np.sum((V.T @ v) ** 2 / ev)))
 
+    def written_sd(self) -> NDArray[np.float64]:
+        """Linearised sd [-] of each identifiable eigen-direction as it is written (largest coefficient 1).
+
+        ``v`` is unit-norm, so ``w = v / max|v|`` has ``sd(w . theta) = 1 / (sqrt(lambda) max|v|)``.
+        """
+        V = self.eigenvectors[:, : self.rank]
+        return 1.0 / (np.sqrt(self.eigenvalues[: self.rank]) * np.max(np.abs(V), axis=0))
+
+    @property
+    def n_determined(self) -> int:
+        """How many identifiable directions are well determined (:data:`WELL_DETERMINED_SD`)."""
+        return int(np.sum(self.eigenvalues[: self.rank] >= WELL_DETERMINED_EIGENVALUE))
+
+    @property
+    def n_sloppy(self) -> int:
+        """How many identifiable directions are sloppy (above :data:`WELL_DETERMINED_SD`)."""
+        return self.rank - self.n_determined
+
 
 def spectrum(F: NDArray, names: list[str]) -> Spectrum:
     """Eigen-analysis of a Fisher information matrix ``F`` (p, p) with parameter ``names``."""
@@ -94,7 +135,7 @@ def spectrum(F: NDArray, names: list[str]) -> Spectrum:
             sd[i] = np.sqrt(np.sum(V[i, :rank] ** 2 / ev[:rank]))
     out = Spectrum(names=list(names), eigenvalues=ev, eigenvectors=V, rank=rank, null_space=null, sd=sd)
     out.words = describe_null_space(out)
-    out.determined = describe_determined(out)
+    out.determined, out.sloppy = describe_determined(out)
     return out
 
 
@@ -157,6 +198,16 @@ def describe_combination(v: NDArray, names: list[str], tol: float = 0.08) -> str
             if len(a) == 1:
                 return f"mu(0) = A + B of guide {a[0]}{tendon}"
             return f"the sum of mu(0) = A + B over guides {_ranges(a)}{tendon}"
+    terms = _written_terms(v, keep, names, tol)
+    order = sorted(terms, key=lambda n: -abs(terms[n]))
+    text = f"{terms[order[0]]:.2f}·{order[0]}"
+    for n in order[1:5]:
+        text += f" {'+' if terms[n] > 0 else '−'} {abs(terms[n]):.2f}·{n}"
+    return text + (f" … ({len(order) - 5} more terms)" if len(order) > 5 else "")
+
+
+def _written_terms(v: NDArray, keep: NDArray, names: list[str], tol: float) -> dict[str, float]:
+    """The terms of ``v`` (largest coefficient 1) as written: a guide's A and B with equal weights as its mu(0)."""
     # A guide's A and B with (nearly) equal weights act as its mu(0) = A + B: say so.
     terms: dict[str, float] = {}
     index = {names[i]: i for i in keep}
@@ -168,11 +219,7 @@ def describe_combination(v: NDArray, names: list[str], tol: float = 0.08) -> str
             terms[label] = 0.5 * (v[i] + v[index[partner]])
         else:
             terms[names[i]] = v[i]
-    order = sorted(terms, key=lambda n: -abs(terms[n]))
-    text = f"{terms[order[0]]:.2f}·{order[0]}"
-    for n in order[1:5]:
-        text += f" {'+' if terms[n] > 0 else '−'} {abs(terms[n]):.2f}·{n}"
-    return text + (f" … ({len(order) - 5} more terms)" if len(order) > 5 else "")
+    return terms
 
 
 def _groups(null: NDArray, tol: float = 1e-6) -> list[list[int]]:
@@ -262,16 +309,16 @@ def _compress(names: list[str]) -> list[str]:
     return out
 
 
-def describe_determined(s: Spectrum, max_items: int = 3) -> list[str]:
-    """The best-determined combinations (largest Fisher eigenvalues) and, for context, the sloppiest."""
-    out = []
-    for k in range(min(max_items, s.rank)):
-        v = s.eigenvectors[:, k]
-        out.append(f"{describe_combination(v, s.names)} (sd {1 / np.sqrt(s.eigenvalues[k]):.3g})")
-    if s.rank > max_items or (s.rank and s.rank == s.n_params and s.n_params > 1):
-        k = s.rank - 1
-        out.append(
-            f"sloppiest identifiable: {describe_combination(s.eigenvectors[:, k], s.names)} "
-            f"(sd {1 / np.sqrt(s.eigenvalues[k]):.3g})"
-        )
-    return out
+def describe_determined(s: Spectrum, max_items: int = 3) -> tuple[list[str], list[str]]:
+    """The well-determined combinations (best first) and the sloppy ones (sloppiest first), in words.
+
+    An identifiable eigen-direction is well determined when its eigenvalue is at least
+    :data:`WELL_DETERMINED_EIGENVALUE` (unit-norm sd at most :data:`WELL_DETERMINED_SD`), else
+    sloppy; at most ``max_items`` of each are said, each with its sd as written (largest coefficient 1).
+    """
+    sd, ev = s.written_sd(), s.eigenvalues[: s.rank]
+    say = lambda k: f"{describe_combination(s.eigenvectors[:, k], s.names)} (sd {sd[k]:.3g})"  # noqa: E731
+    # The eigenvalues are descending: the best-determined directions first, the sloppiest last.
+    good = [say(k) for k in range(s.rank) if ev[k] >= WELL_DETERMINED_EIGENVALUE][:max_items]
+    sloppy = [say(k) for k in reversed(range(s.rank)) if ev[k] < WELL_DETERMINED_EIGENVALUE][:max_items]
+    return good, sloppy

@@ -19,7 +19,7 @@ from tendon_id.identifiability.problem import IdentifiabilityProblem
 from tendon_id.identifiability.profile import Profile, profile
 from tendon_id.identifiability.sampler import split_rhat
 from tendon_id.identifiability.settings import StudySettings
-from tendon_id.identifiability.spectrum import Spectrum, spectrum
+from tendon_id.identifiability.spectrum import WELL_DETERMINED_SD, Spectrum, spectrum
 
 
 @dataclass
@@ -95,7 +95,13 @@ class TyingStudy:
             "condition_number": float(max(conds)) if full else None,
             "condition_number_identifiable": float(max(s.identifiable_condition_number for s in self.spectra)),
             "unidentifiable": self.unidentifiable,
+            # Only directions whose unit-norm sd is at most WELL_DETERMINED_SD; the rest of the
+            # identifiable directions are "sloppy" (identifiable, but too loose to quote).
             "well_determined": [w for s in self.spectra for w in s.determined],
+            "sloppy": [w for s in self.spectra for w in s.sloppy],
+            "n_well_determined": sum(s.n_determined for s in self.spectra),
+            "n_sloppy": sum(s.n_sloppy for s in self.spectra),
+            "well_determined_sd_max": WELL_DETERMINED_SD,
             "residual_sigma_n": [float(s) for s in self.sigma],
             "per_tendon": [
                 {

@@ -11,7 +11,14 @@ from tendon_id.atomic import write_json_atomic
 from tendon_id.identifiability.analysis import IdentifiabilityResult
 from tendon_id.identifiability.band import ambiguity_band
 from tendon_id.identifiability.profile import THRESHOLD_95
-from tendon_id.identifiability.spectrum import RANK_RTOL
+from tendon_id.identifiability.spectrum import RANK_RTOL, WELL_DETERMINED_EIGENVALUE, WELL_DETERMINED_SD
+from tendon_id.identifiability.summary import (
+    advice_sentence,
+    advice_table,
+    profile_table,
+    tendon_sentences,
+    trust_sentences,
+)
 from tendon_id.report.html import HtmlPage, pyplot
 
 
@@ -28,9 +35,18 @@ def spectrum_figure(result: IdentifiabilityResult):
             ax.semilogy(np.arange(1, len(ev) + 1), ev, "o-", ms=3, label=f"tendon {i + 1} (rank {s.rank}/{s.n_params})")
         if floor is not None:
             ax.axhline(floor * 1e3, color="k", ls=":", lw=1, label="rank threshold (zero below)")
+        ax.axhline(
+            WELL_DETERMINED_EIGENVALUE,
+            color="C2",
+            ls="--",
+            lw=1,
+            label=f"well determined above (sd ≤ {WELL_DETERMINED_SD:g})",
+        )
         ax.set_title(f"{tying}: Fisher-information eigenvalues")
         ax.set_xlabel("eigen-direction (largest first)")
-        ax.set_ylabel("eigenvalue [1/unit²]")
+        ax.xaxis.get_major_locator().set_params(integer=True)
+        # F = X^T W X / sigma^2: wraps [rad] squared, W [N^2] over sigma^2 [N^2], so per (friction coefficient)^2.
+        ax.set_ylabel("eigenvalue [-] (per friction coefficient²)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     return fig
@@ -170,104 +186,174 @@ def band_width_figure(result: IdentifiabilityResult):
 
 
 def advice_figure(result: IdentifiabilityResult):
-    """D-criterion and expected band shrinkage per candidate joint, with the measured check."""
+    """D-criterion per candidate joint; expected (linearised) against measured band shrinkage; RMSE against truth."""
     plt = pyplot()
     c = result.instrument
+    v = result.advice_verdict
     j = np.array([x["joint"] for x in c])
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 3.2))
-    ax.bar(j, [x["log_det"] for x in c], color=["C3" if x == result.instrument_joint else "C0" for x in j])
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.2))
+    ax = axes[0]
+    ax.bar(j, [x["log_det"] for x in c], color=["C3" if x == v["linearised_joint"] else "C0" for x in j])
     ax.set_ylim(min(x["log_det"] for x in c) - 5, max(x["log_det"] for x in c) + 5)
     ax.set_xlabel("joint to instrument")
     ax.set_ylabel("sum of log det(F) (D-criterion)")
-    ax.set_title("D-optimal joint (red)")
+    ax.set_title("linearised D-optimal joint (red)")
     ax.grid(alpha=0.3)
-    ax2.plot(j, [x["expected_shrinkage"] for x in c], "o-", label="expected (linearised)")
-    if result.advice_check:
-        base = result.studies["per-guide"].band.mean_width()
-        ax2.plot(
-            [x["joint"] for x in result.advice_check],
-            [1 - x["band_width_mean"] / base for x in result.advice_check],
-            "s-",
-            label="measured (with the joint's label)",
+    ax = axes[1]
+    ax.plot(j, [100 * x["expected_shrinkage"] for x in c], "o-", label="expected (linearised)")
+    check = result.advice_check
+    if check:
+        ax.plot([x["joint"] for x in check], [100 * x["measured_shrinkage"] for x in check], "s-", label="measured")
+        ax.axhline(0, color="k", lw=0.8)
+    ax.set_xlabel("joint to instrument")
+    ax.set_ylabel("per-guide band narrower by [%]")
+    ax.set_title("the advice's expectation, and its check" if check else "expectation (unchecked: no truth)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    ax = axes[2]
+    if check and result.advice_baseline is not None:
+        ax.plot(
+            [x["joint"] for x in check], [x["rmse_n"] for x in check], "s-", color="C1", label="with the joint's label"
         )
-    ax2.set_xlabel("joint to instrument")
-    ax2.set_ylabel("band shrinkage")
-    ax2.legend(fontsize=8)
-    ax2.grid(alpha=0.3)
+        ax.axhline(result.advice_baseline["rmse_n"], color="k", ls="--", lw=1, label="terminal labels only")
+        ax.set_xlabel("joint to instrument")
+        ax.set_ylabel("RMSE against truth, joints 2..N-1 [N]")
+        ax.set_title("the estimate against the simulator truth")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    else:
+        ax.text(0.5, 0.5, "no intermediate truth in this data", ha="center", va="center")
+        ax.set_axis_off()
     return fig
 
 
-def _fmt_ci(ci) -> str:
-    lo, hi = ci
-    f = lambda v: "open" if v is None else f"{v:.4g}"  # noqa: E731
-    return f"[{f(lo)}, {f(hi)}]"
+def _profile_section(page: HtmlPage, result: IdentifiabilityResult, fitted: str) -> None:
+    """The informative profiles in view, the structurally flat ones counted, all of them folded."""
+    t = profile_table(result, fitted)
+    page.table(t["header"], t["shown"])
+    page.paragraph(
+        f"Shown: every tied profile, and the {t['finite']} per-guide ones with a finite interval. Not shown: "
+        f"{t['flat']} of the per-guide law's {t['per_guide']} profiles are structurally unidentifiable (flat: the "
+        f"terminal data cannot see them at all) and {t['open']} practically unidentifiable (open to the physical "
+        "limit). Threshold 3.84 (95 %, Raue et al. 2009); the physical limit is mu ≥ 0 on [0, pi] and the sanity "
+        "bounds.",
+        cls="note",
+    )
+    page.table(t["header"], t["all"], collapsed=f"All {len(t['all'])} profiles (reference)")
+
+
+def _determined_section(page: HtmlPage, result: IdentifiabilityResult, js: dict, fitted: str) -> None:
+    """Rank, the unidentifiable directions, and the well-determined and sloppy combinations."""
+    t, p = js["tied"], js["per_guide"]
+    law = result.truth_law
+    page.paragraph(
+        f"Tied law (one (A_i, B_i) per tendon): rank {t['rank']} of {t['n_params']} "
+        f"({'full rank' if t['rank'] == t['n_params'] else 'rank-deficient'}), Fisher condition number "
+        f"{t['condition_number_identifiable']:.3g}. Per-guide law (one (A, B) per guide and tendon): rank "
+        f"{p['rank']} of {p['n_params']}: {p['n_unidentifiable']} directions the terminal data cannot see at all."
+    )
+    for w in p["unidentifiable"]:
+        page.paragraph("Unidentifiable: " + w, cls="note")
+    page.heading("Well-determined and sloppy combinations", level=3)
+    for text in tendon_sentences(result, fitted):
+        page.paragraph(text)
+    if law and not law["feasible"]:
+        page.paragraph(
+            "The truth's (A, B) has B < |A|, outside the fit's feasible set B ≥ |A| (mu ≥ 0 on [0, pi]): "
+            "the fit can match its mu(0) but never its A and B.",
+            cls="note",
+        )
+    good = t["well_determined"] + p["well_determined"]
+    page.paragraph(
+        f"Well determined ({t['n_well_determined']} tied, {p['n_well_determined']} per-guide directions): "
+        + ("; ".join(good) if good else "none")
+        + ".",
+    )
+    page.paragraph(
+        f"Sloppy, identifiable but loose ({t['n_sloppy']} tied, {p['n_sloppy']} per-guide; the sloppiest): "
+        + "; ".join(t["sloppy"][:3] + p["sloppy"][:3])
+        + ".",
+    )
+    page.paragraph(
+        f"Well determined: a Fisher eigen-direction whose unit-norm combination has a linearised sd of at most "
+        f"{WELL_DETERMINED_SD:g} (eigenvalue at least {WELL_DETERMINED_EIGENVALUE:g}); each is written with its "
+        "largest coefficient 1 and its sd as written. The sds are the fitted law's.",
+        cls="note",
+    )
+
+
+def _advice_section(page: HtmlPage, result: IdentifiabilityResult, js: dict) -> None:
+    """The advice with its check: expected against measured shrinkage per candidate, and the verdict's rule."""
+    adv = js["advice"]
+    v = adv["verdict"]
+    page.paragraph(advice_sentence(result)["text"])
+    page.paragraph(
+        f"Excite joints {', '.join(map(str, adv['excite_joints']))}: their guides' mu(0) is the least determined "
+        "(undetermined where the data held them still)."
+    )
+    header, rows = advice_table(js)
+    check, base = adv["check"], adv["check_baseline"]
+    page.table(header, rows)
+    if check:
+        rule = v["rule"][0].upper() + v["rule"][1:]
+        page.paragraph(
+            "Measured: each candidate joint's label (simulator truth plus load-cell noise) added to the terminal "
+            "labels, the per-guide law sampled again, and its band scored against the truth (mean width against the "
+            f"{base['band_width_mean']:.2f} N of the terminal labels alone, coverage and its median's RMSE over the "
+            f"intermediate joints). {rule}. The measured best is the largest measured narrowing among the joints "
+            "that leave the estimate no further from the truth.",
+            cls="note",
+        )
+    else:
+        page.paragraph(
+            "Unchecked: without intermediate truth the advice is the linearised expectation only "
+            "(the Fisher information of the joint's labels at the fitted law).",
+            cls="note",
+        )
+    page.figure(advice_figure(result), "Which joint to instrument: the linearised expectation and its check.")
 
 
 def report_page(result: IdentifiabilityResult) -> HtmlPage:
     """Build the report page of one identifiability result (:func:`~tendon_id.identifiability.analyse`)."""
     js = result.to_dict()
     tied, per = result.studies["tied"], result.studies["per-guide"]
-    page = HtmlPage(f"Identifiability report: {Path(result.source).name}")
-    page.paragraph(
-        f"Data: {result.source} (protocol {result.protocol or 'unknown'}, {result.n_frames} frames, "
-        f"N = {result.n_modules}). Structure analysed: {result.model_name}, fitted on the terminal labels only; "
-        f"load-cell noise {result.noise_n:g} N. Built in {result.seconds:.0f} s."
+    mis = js["misspecification"]["misspecified"]
+    fitted = "fitted" if not mis else "fitted (misspecified)"
+    source = f"; file {Path(result.source).name}" if result.source else ""
+    page = HtmlPage(
+        f"Identifiability: {result.name}",
+        subtitle=f"{result.n_frames} frames, N = {result.n_modules}{source}. Structure analysed: {result.model_name}, "
+        f"fitted on the terminal labels only.",
+        made_by=f"tendon_id.identifiability.analyse, {result.seconds:.0f} s",
     )
+    for s in js["summary"]:
+        page.lead(s["text"], s["tone"])
 
-    page.heading("What this data determines")
-    t, p = js["tied"], js["per_guide"]
-    page.paragraph(
-        f"Tied law (one (A_i, B_i) per tendon): rank {t['rank']} of {t['n_params']} "
-        f"({'full rank' if t['rank'] == t['n_params'] else 'rank-deficient'}), Fisher condition number "
-        f"{t['condition_number_identifiable']:.3g}."
-    )
-    page.paragraph(
-        f"Per-guide law (one (A, B) per guide and tendon): rank {p['rank']} of {p['n_params']}: "
-        f"{p['n_unidentifiable']} directions the terminal data cannot see at all."
-    )
-    for w in p["unidentifiable"]:
-        page.paragraph("Unidentifiable: " + w, cls="note")
-    page.heading("Well-determined combinations", level=3)
-    post = t["posterior"]
-    for i in range(3):
-        a, b, m = post[f"A_t{i + 1}"], post[f"B_t{i + 1}"], post[f"mu0_t{i + 1}"]
-        page.paragraph(
-            f"Tendon {i + 1}: mu(0) = A + B = {m['mean']:.4f} ± {m['sd']:.2g} is tight, while A = {a['mean']:.3f} ± "
-            f"{a['sd']:.2g} and B = {b['mean']:.3f} ± {b['sd']:.2g} are sloppy (posterior correlation "
-            f"{tied.correlation(i)[0, 1]:.4f}): at small wraps alpha cos(alpha) ≈ alpha, so only their sum is seen."
-        )
-    for w in t["well_determined"][:2] + p["well_determined"][:2]:
-        page.paragraph("Best determined: " + w, cls="note")
+    page.heading("How far to trust the numbers")
+    for text in trust_sentences(result):
+        page.paragraph(text)
+
+    page.heading("What this data determines" + (" about the misspecified fit" if mis else ""))
+    _determined_section(page, result, js, "fitted")
     page.figure(
         spectrum_figure(result),
-        "Fisher-information eigen-spectrum: the per-guide law's eigenvalues fall off a cliff "
-        "where the data is blind (structural), and spread over many decades where it is sloppy.",
+        "Fisher-information eigen-spectrum" + (" of the misspecified fit" if mis else "") + ": the per-guide law's "
+        "eigenvalues fall off a cliff where the data is blind (structural), and spread over many decades where it "
+        "is sloppy.",
     )
 
     page.heading("Profile likelihoods")
-    rows = []
-    for st in (tied, per):
-        for i, profs in enumerate(st.profiles):
-            for q in profs:
-                if st is tied or q.name.startswith("mu0"):
-                    rows.append([st.tying, q.name, q.estimate, _fmt_ci(q.ci), q.verdict])
-    page.table(["law", "parameter", "estimate", "95 % interval", "verdict"], rows)
-    page.paragraph(
-        f"Verdicts over all profiled parameters: tied {t['profile_verdicts']}, per-guide {p['profile_verdicts']}. "
-        "Structural: in the Fisher null space (flat). Practical: the interval runs to the physical limit "
-        "(mu ≥ 0 on [0, pi] and the sanity bounds). Threshold: 3.84 (95 %, Raue et al. 2009).",
-        cls="note",
-    )
-    page.figure(profile_figure(result), "Profile likelihoods with the 95 % threshold (dashed).")
+    _profile_section(page, result, fitted)
+    page.figure(profile_figure(result), f"Profile likelihoods of the {fitted} law with the 95 % threshold (dashed).")
 
     page.heading("Posterior widths and correlations")
     if result.emcee is not None:
         e = result.emcee
         page.paragraph(
             f"emcee (tied, cross-check of the exact hit-and-run draws): corr(A, B) per tendon "
-            f"{', '.join(f'{c:.4f}' for c in e['corr_A_B'])}; "
-            f"sd of mu(0) {', '.join(f'{s:.2g}' for s in e['mu0_sd'])}; "
-            f"autocorrelation time {e['tau']:.0f} steps, {e['seconds']:.1f} s."
+            f"{', '.join(f'{c:.4f}' for c in e['corr_A_B'])}; {fitted} sd of mu(0) "
+            f"{', '.join(f'{s:.2g}' for s in e['mu0_sd'])}; autocorrelation time {e['tau']:.0f} steps, "
+            f"{e['seconds']:.1f} s."
         )
     page.paragraph(
         f"Hit-and-run convergence, largest split R-hat of mu(0) per tendon: tied "
@@ -275,20 +361,14 @@ def report_page(result: IdentifiabilityResult) -> HtmlPage:
         "(values above 1.1 mean the flat per-guide directions were explored only roughly).",
         cls="note",
     )
-    page.figure(posterior_figure(result), "Tied (A, B) draws, and the per-guide posterior correlation matrix.")
+    page.figure(posterior_figure(result), f"Tied (A, B) draws ({fitted}), and the per-guide posterior correlation.")
 
     page.heading("Excitation coverage")
     page.table(
         ["guide", "min [deg]", "max [deg]", "sd [deg]", "distinct readings", "corr with next"],
         [
-            [
-                c["guide"],
-                c["min_deg"],
-                c["max_deg"],
-                c["sd_deg"],
-                c["distinct"],
-                "constant" if c["corr_next"] is None else c["corr_next"],
-            ]
+            [c["guide"], c["min_deg"], c["max_deg"], c["sd_deg"], c["distinct"]]
+            + ["constant" if c["corr_next"] is None else c["corr_next"]]
             for c in result.excitation
         ],
     )
@@ -296,37 +376,11 @@ def report_page(result: IdentifiabilityResult) -> HtmlPage:
 
     page.heading("Intermediate-tension ambiguity band")
     b = js["bands"]
-    text = (
+    page.paragraph(
         f"Mean 95 % band over the intermediate joints: tied {b['tied_width_mean']:.2f} N, per-guide "
-        f"{b['per_guide_width_mean']:.2f} N "
-        "(laws that fit the terminal data equally well, plus the actuator load cell's noise)."
+        f"{b['per_guide_width_mean']:.2f} N (laws that fit the terminal data equally well, plus the actuator load "
+        "cell's noise)" + (": the misspecified fit's ambiguity, not the error against the robot." if mis else ".")
     )
-    if b["truth_coverage"] is not None:
-        text += (
-            f" The simulator truth lies inside the tied band for {100 * b['truth_coverage']:.1f} % of frames "
-            f"(worst joint {100 * b['truth_coverage_min_joint']:.1f} %), inside the per-guide band for "
-            f"{100 * b['per_guide_truth_coverage']:.1f} %."
-        )
-    page.paragraph(text)
-    mis = js["misspecification"]
-    if mis["misspecified"]:
-        page.paragraph(
-            "Misspecified: the terminal residual corresponds to "
-            f"{', '.join(f'{s:.1f}' for s in mis['residual_sigma_n'])} N "
-            f"of noise against the load cells' {mis['nominal_noise_n']:g} N. "
-            "The capstan law does not explain this data, "
-            "so the bands describe the model's ambiguity, not the truth; "
-            + (
-                "the coverage above says how far off they are."
-                if b["truth_coverage"] is not None
-                else "an unmodelled effect is likely (see `tendon-id diagnose`)."
-            )
-        )
-    else:
-        page.paragraph(
-            f"The residual ({', '.join(f'{s:.2f}' for s in mis['residual_sigma_n'])} N) matches the load cells' "
-            f"{mis['nominal_noise_n']:g} N noise: no sign of misspecification."
-        )
     page.figure(band_width_figure(result), "Band width per joint, and the share of frames whose truth it covers.")
     page.figure(
         band_figure(result, result.truth, joint=max(2, result.n_modules // 2)),
@@ -334,38 +388,14 @@ def report_page(result: IdentifiabilityResult) -> HtmlPage:
     )
 
     page.heading("Advice: what to measure next")
-    adv = js["advice"]
-    best = next(c for c in adv["candidates"] if c["joint"] == adv["instrument_joint"])
-    page.paragraph(
-        f"Instrument joint {adv['instrument_joint']} (D-optimal): the linearised per-guide band is expected to "
-        f"shrink by {100 * best['expected_shrinkage']:.0f} %. "
-        f"Excite joints {', '.join(map(str, adv['excite_joints']))}: "
-        "their guides' mu(0) is the least determined (undetermined where the data held them still)."
-    )
-    if adv["check"]:
-        widths = {c["joint"]: c["band_width_mean"] for c in adv["check"]}
-        others = [w for j, w in widths.items() if j != adv["instrument_joint"]]
-        page.paragraph(
-            f"Checked against the simulator truth: with joint {adv['instrument_joint']}'s label "
-            "the mean per-guide band is "
-            f"{widths[adv['instrument_joint']]:.2f} N, against {np.median(others):.2f} N for the median alternative "
-            f"and {min(others):.2f} N for the best "
-            f"(joint {min((w, j) for j, w in widths.items() if j != adv['instrument_joint'])[1]})."
-        )
-    page.figure(advice_figure(result), "Which joint to instrument.")
+    _advice_section(page, result, js)
 
     if result.learned is not None:
         page.heading("The learned cascade: tied against per-guide PG-CHTC")
-        rows = []
-        for name, d in result.learned.items():
-            rows.append(
-                [
-                    name,
-                    d["seeds"],
-                    "-" if d["joint_rmse_mean"] is None else d["joint_rmse_mean"],
-                    d["seed_spread_mean_n"],
-                ]
-            )
+        rows = [
+            [name, d["seeds"], "-" if d["joint_rmse_mean"] is None else d["joint_rmse_mean"], d["seed_spread_mean_n"]]
+            for name, d in result.learned.items()
+        ]
         page.table(["PG-CHTC", "seeds", "intermediate-joint RMSE [N]", "spread across seeds [N]"], rows)
     return page
 

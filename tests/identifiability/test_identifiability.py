@@ -17,22 +17,12 @@ from tendon_id.identifiability import IdentifiabilityProblem, StudySettings, ana
 from tendon_id.identifiability.learned import learned_comparison
 from tendon_id.identifiability.profile import THRESHOLD_95, profile
 from tendon_id.identifiability.sampler import hit_and_run, split_rhat
+from tendon_id.identifiability.spectrum import WELL_DETERMINED_SD
 from tendon_id.report.identifiability import write_report
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
 
-SMALL = StudySettings(n_chains=32, n_steps=300, thin=10, band_frames=400, emcee=True, check_advice=True)
-
-
-@pytest.fixture(scope="module")
-def noise_only():
-    """Terminal-only data with no unmodelled effect: the capstan law is the truth."""
-    return simulate(load_recipe("snake12-noise-only"), "terminal-only", frames=6000, seed=3).recording
-
-
-@pytest.fixture(scope="module")
-def study(noise_only):
-    return analyse(noise_only, SMALL)
+# The fixtures noise_only and study (SMALL settings) are in conftest.py, shared with test_report.py.
 
 
 # ---- pieces ---------------------------------------------------------------------------------
@@ -149,6 +139,31 @@ def test_a_and_b_are_sloppy_while_their_sum_is_tight(study):
     assert tied.spectra[0].determined[0].startswith("mu(0) = A + B")
 
 
+def test_well_determined_lists_only_directions_within_the_threshold_and_the_rest_as_sloppy():
+    # A tied law whose mu(0) direction (A + B) has a unit-norm sd a quarter of the threshold and whose
+    # A - B direction has four times it: only mu(0) is well determined, A - B is sloppy.
+    u, w = np.array([1.0, 1.0]) / np.sqrt(2), np.array([1.0, -1.0]) / np.sqrt(2)
+    sd_u, sd_w = WELL_DETERMINED_SD / 4, 4 * WELL_DETERMINED_SD
+    s = spectrum(np.outer(u, u) / sd_u**2 + np.outer(w, w) / sd_w**2, ["A_t1", "B_t1"])
+    # As written, A + B (coefficients 1, 1) has sd |(1, 1)| sd_u = sqrt(2) sd_u; A - B likewise.
+    assert s.determined == [f"mu(0) = A + B for tendon 1 (sd {np.sqrt(2) * sd_u:.3g})"]
+    assert s.sloppy == [f"1.00·A_t1 − 1.00·B_t1 (sd {np.sqrt(2) * sd_w:.3g})"]
+    assert (s.n_determined, s.n_sloppy) == (1, 1)
+
+
+def test_the_study_json_keeps_sloppy_directions_out_of_well_determined(study):
+    for key in ("tied", "per_guide"):
+        js = study.to_dict()[key]
+        assert js["n_well_determined"] + js["n_sloppy"] == js["rank"]
+        assert not any("sloppiest" in w for w in js["well_determined"])
+    for tying in study.studies.values():
+        for s in tying.spectra:
+            # Each listed direction's eigenvalue is on its side of the threshold.
+            ev = s.eigenvalues[: s.rank]
+            assert len(s.determined) == min(3, int(np.sum(ev >= 1 / WELL_DETERMINED_SD**2)))
+            assert len(s.sloppy) == min(3, int(np.sum(ev < 1 / WELL_DETERMINED_SD**2)))
+
+
 def test_the_exact_sampler_and_emcee_agree_on_the_tied_posterior(study):
     post = study.to_dict()["tied"]["posterior"]
     em = study.emcee["parameters"]
@@ -170,6 +185,20 @@ def test_the_suggested_joint_narrows_the_band_more_than_the_median_alternative(s
     chosen = widths.pop(adv["instrument_joint"])
     assert chosen < np.median(list(widths.values()))
     assert max(adv["candidates"], key=lambda c: c["log_det"])["joint"] == adv["instrument_joint"]
+    # The capstan law is the truth here: the check against the truth confirms the linearised advice.
+    assert adv["verdict"]["status"] == "confirmed" and adv["verdict"]["recommended_joint"] == adv["instrument_joint"]
+
+
+def test_the_check_scores_each_candidate_against_the_truth(study, noise_only):
+    adv = study.to_dict()["advice"]
+    base = study.studies["per-guide"].band
+    assert adv["check_baseline"]["band_width_mean"] == base.mean_width()
+    truth = noise_only.joint_truth[base.frames]
+    rmse0 = np.sqrt(np.mean((base.median[:, 1:-1] - truth[:, 1:-1]) ** 2))
+    assert adv["check_baseline"]["rmse_n"] == pytest.approx(rmse0)
+    for c in adv["check"]:
+        assert c["measured_shrinkage"] == pytest.approx(1 - c["band_width_mean"] / base.mean_width())
+        assert 0.0 <= c["truth_coverage"] <= 1.0 and c["rmse_n"] > 0
 
 
 def test_intermediate_truth_is_never_used_to_fit(noise_only):
@@ -187,11 +216,10 @@ def test_intermediate_truth_is_never_used_to_fit(noise_only):
     assert a["bands"]["truth_coverage"] != b["bands"]["truth_coverage"]
 
 
-def test_a_misspecified_model_is_reported_as_such():
-    rec = simulate(load_recipe("snake12-paper"), "terminal-only", frames=3000, seed=1).recording
-    quick = StudySettings(n_chains=16, n_steps=60, thin=5, band_frames=200, emcee=False, check_advice=False)
-    js = analyse(rec, quick).to_dict()
+def test_a_misspecified_model_is_reported_as_such(misspecified):
+    js = misspecified.to_dict()
     assert js["misspecification"]["misspecified"]
+    assert js["misspecification"]["numbers_describe"] == "the misspecified fit, not the robot"
     assert 0.0 <= js["bands"]["truth_coverage"] <= 1.0
 
 
@@ -204,7 +232,8 @@ def test_identifiability_command_writes_a_self_contained_report_and_the_design_j
     out, js = tmp_path / "rep" / "ident.html", tmp_path / "ident.json"
     assert main(["identifiability", "--data", str(data), "--out", str(out), "--json", str(js)]) == 0
     html = out.read_text()
-    assert html.count('src="data:image/png;base64,') == 7 and "http" not in html.split("<body>")[1].split("Data:")[0]
+    assert html.count('src="data:image/png;base64,') == 7 and "http" not in html.split("<body>")[1]
+    assert "<title>Identifiability: snake12-noise-only, terminal-only</title>" in html
     doc = json.loads(js.read_text())
     for key in ("n_params", "rank", "condition_number", "unidentifiable"):
         assert key in doc["tied"] and key in doc["per_guide"]
@@ -249,6 +278,9 @@ def test_data_without_truth_gets_a_report_with_no_coverage_and_no_check(tmp_path
     result = analyse(noise_only.fitting_view(), quick)
     js = result.to_dict()
     assert js["bands"]["truth_coverage"] is None and js["advice"]["check"] is None
+    assert js["advice"]["verdict"]["status"] == "unchecked"
     page = write_report(result, tmp_path / "r.html", tmp_path / "r.json").read_text()
-    assert page.count('src="data:image/png;base64,') == 7 and "no intermediate truth" not in page.split("<figure>")[0]
+    assert page.count('src="data:image/png;base64,') == 7
+    assert "Unchecked linearised advice (no intermediate truth to check it against)" in page
+    assert "Instrument joint" not in page and "measured narrowing" not in page
     assert json.loads((tmp_path / "r.json").read_text())["bands"]["truth_coverage"] is None
