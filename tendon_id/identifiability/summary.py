@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from tendon_id.identifiability.truth import effects_in_words
+from tendon_id.report.truth import effect_words
 
 #: An :class:`~tendon_id.identifiability.analysis.IdentifiabilityResult`; not imported, since the
 #: result's module imports this one for its JSON's ``summary``.
@@ -101,7 +101,7 @@ def lead_sentences(result: IdentifiabilityResult) -> list[dict]:
             + (f", {100 * share:.0f} % of the truth." if abs(share - 1) > 0.1 else ".")
         )
         if law["effects"]:
-            text += f" The simulator adds {effects_in_words(law['effects'])} to that law."
+            text += f" The simulator adds {effect_words(law['effects'])} to that law."
         out.append({"tone": "truth", "text": text})
     out.append(advice_sentence(result))
     return out

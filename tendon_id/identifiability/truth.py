@@ -17,16 +17,6 @@ import numpy as np
 
 from tendon_id.data import Recording
 
-#: The simulator's effects in the report's words (others: the name with spaces).
-EFFECT_WORDS = {
-    "stick_slip": "stick–slip",
-    "viscoelastic": "viscoelastic lag",
-    "contact": "contact",
-    "per_tendon_wrap": "per-tendon wraps",
-    "guide_wear": "guide wear",
-    "bending_stiffness": "bending stiffness",
-}
-
 
 def data_name(recs: Sequence[Recording]) -> str:
     """A short name for the data: the recipe and protocol of simulated data, else the file name.
@@ -86,11 +76,3 @@ def truth_law(recs: Sequence[Recording]) -> dict | None:
         "feasible": bool(np.all(B >= np.abs(A))),
         "effects": effects,
     }
-
-
-def effects_in_words(effects: Sequence[str]) -> str:
-    """``["stick_slip", "contact"]`` -> ``"stick–slip and contact"``."""
-    words = [EFFECT_WORDS.get(e, e.replace("_", " ")) for e in effects]
-    if len(words) <= 1:
-        return "".join(words)
-    return ", ".join(words[:-1]) + " and " + words[-1]
