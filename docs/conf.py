@@ -42,6 +42,8 @@ extensions = [
     "sphinx-mathjax-offline",
     "numpydoc",
     "sphinx_gallery.gen_gallery",
+    # The --help of every command, rendered from the Typer app when the docs build (docs/cli.rst).
+    "sphinxcontrib.typer",
 ]
 
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "**.ipynb_checkpoints", "examples/README.rst"]
@@ -179,5 +181,30 @@ class DataclassDefaults(SphinxDirective):
         return container.children
 
 
+# -- a directive that lists the zoo's models from its registry ---------------------------------
+#
+#   .. zoo-models::
+#
+# One bullet per registered model: its name and the first line of its class's docstring.
+
+
+class ZooModels(SphinxDirective):
+    """Bullet list of :func:`tendon_id.zoo.names`, each with its class's one-line summary."""
+
+    def run(self):
+        from docutils import nodes
+
+        from tendon_id.zoo.registry import model_class, names
+
+        lines = []
+        for name in names():
+            summary = (model_class(name).__doc__ or "").strip().splitlines()
+            lines.append(f"* ``{name}``: {summary[0] if summary else ''}")
+        container = nodes.container()
+        self.state.nested_parse(StringList(lines, source="<zoo-models>"), self.content_offset, container)
+        return container.children
+
+
 def setup(app):
     app.add_directive("dataclass-defaults", DataclassDefaults)
+    app.add_directive("zoo-models", ZooModels)

@@ -17,6 +17,7 @@ from tendon_id import zoo
 from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
 from tendon_id.datasets import DEFAULT_RECIPE, load
 from tendon_id.identifiability import analyse
+from tendon_id.progress import stage
 from tendon_id.report.comparison import add_comparison
 from tendon_id.report.html import HtmlPage
 from tendon_id.report.identifiability import write_report
@@ -29,10 +30,10 @@ LABELS = {"capstan-nonsmooth": "capstan-nonsmooth", "pg-chtc": "PG-CHTC (fast)",
 DEMO_FRAMES = {"terminal-only": 5000, "posterior-3": 5000, "posterior-6": 3000, "planned-paths": 5000}
 
 
-def write_identifiability(rec, path: Path, *, progress: bool | None = None) -> Path:
-    """The identifiability report (and its JSON beside it) of one recording."""
+def write_identifiability(rec, path: Path, *, progress: bool | None = None):
+    """The identifiability report (and its JSON beside it) of one recording; returns the page's path and the result."""
     result = analyse(rec, progress=progress)
-    return write_report(result, path, path.with_suffix(".json"))
+    return write_report(result, path, path.with_suffix(".json")), result
 
 
 def write_diagnosis(base, split, path: Path, *, progress: bool | None = None):
@@ -105,7 +106,8 @@ def run_demo(
     """
     t0 = time.perf_counter()
     out = Path(out)
-    recs = [load(recipe, protocol=p, frames=frames or n, progress=progress) for p, n in DEMO_FRAMES.items()]
+    with stage("simulate the recipe's protocols"):
+        recs = [load(recipe, protocol=p, frames=frames or n, progress=progress) for p, n in DEMO_FRAMES.items()]
     name = recs[0].meta.get("recipe", recipe)
     page = HtmlPage(
         f"tendon-id demo: {name}",
@@ -114,23 +116,27 @@ def run_demo(
         contents=True,
     )
     if models:
-        split = paper_split(recipe, 0, progress=progress)
-        fitted = {  # by zoo name
-            "capstan-nonsmooth": zoo.make("capstan-nonsmooth").fit(split.calibration),
-            "pg-chtc": zoo.make("pg-chtc", preset="fast", progress=progress).fit(split.calibration),
-            "pg-chtc-ns": zoo.make("pg-chtc-ns", preset="fast", progress=progress).fit(split.calibration),
-        }
+        with stage("simulate the paper's split"):
+            split = paper_split(recipe, 0, progress=progress)
+        with stage("fit capstan-nonsmooth, pg-chtc and pg-chtc-ns"):
+            fitted = {  # by zoo name
+                "capstan-nonsmooth": zoo.make("capstan-nonsmooth").fit(split.calibration),
+                "pg-chtc": zoo.make("pg-chtc", preset="fast", progress=progress).fit(split.calibration),
+                "pg-chtc-ns": zoo.make("pg-chtc-ns", preset="fast", progress=progress).fit(split.calibration),
+            }
         test = {p: split.test[p] for p in TEST_PROTOCOLS}
-        scores = add_comparison(
-            page,
-            test,
-            {LABELS[n]: model for n, model in fitted.items()},
-            "Result: the estimators on held-out trajectories (paper Table II split)",
-            train=split.calibration,
-        )
+        with stage("compare the estimators"):
+            scores = add_comparison(
+                page,
+                test,
+                {LABELS[n]: model for n, model in fitted.items()},
+                "Result: the estimators on held-out trajectories (paper Table II split)",
+                train=split.calibration,
+            )
         open_loop = add_result_lead(page, scores, recs[0].meta)
         base = fitted["capstan-nonsmooth"]
-        diag, diag_result = write_diagnosis(base, split, out / "diagnosis.html", progress=progress)
+        with stage("diagnose capstan-nonsmooth"):
+            diag, diag_result = write_diagnosis(base, split, out / "diagnosis.html", progress=progress)
         page.heading("Sim-to-real gap")
         page.link(
             diag.name,
@@ -140,17 +146,20 @@ def run_demo(
             after=".",
         )
         terminal_only = next(r for r in recs if r.protocol == "terminal-only")
-        ident = write_identifiability(terminal_only, out / "identifiability.html", progress=progress)
+        with stage("identifiability of the terminal-only data"):
+            ident, ident_result = write_identifiability(terminal_only, out / "identifiability.html", progress=progress)
         page.heading("Identifiability")
         page.link(
             ident.name,
             ident.name,
             before="What the terminal-only data can and cannot tell (tied against per-guide laws, "
-            "the intermediate-tension ambiguity band, which joint to instrument next): ",
+            "the intermediate-tension ambiguity band, which joint to instrument next). It opens: "
+            f"{ident_result.to_dict()['summary'][0]['text']} ",
             after=".",
         )
         by_name = {name: open_loop[LABELS[name]] for name in fitted}
-        loop = write_closed_loop(recipe, fitted, out / "closed_loop.html", open_loop=by_name, progress=progress)
+        with stage("closed loop"):
+            loop = write_closed_loop(recipe, fitted, out / "closed_loop.html", open_loop=by_name, progress=progress)
         page.heading("Closed loop")
         page.link(
             loop.name,
@@ -165,9 +174,10 @@ def run_demo(
         page.lead("The simulated recordings only (no model was trained: --no-models).", tone="verdict")
         if sentence:
             page.lead(sentence, tone="truth")
-    add_recordings(page, recs, heading="The simulated data")
-    page.paragraph(f"Built in {time.perf_counter() - t0:.0f} s.", cls="note")
-    return page.write(out / "summary.html")
+    with stage("writing the summary"):
+        add_recordings(page, recs, heading="The simulated data")
+        page.paragraph(f"Built in {time.perf_counter() - t0:.0f} s.", cls="note")
+        return page.write(out / "summary.html")
 
 
 def add_result_lead(page: HtmlPage, scores: dict, meta: dict) -> dict[str, float]:

@@ -5,6 +5,10 @@ interrupted (Ctrl-C: one line saying where the work stopped and which whole file
 
 A library error names the parameter whose value is wrong (:class:`~tendon_id.errors.ConfigError`);
 here it is printed with the flag of the command that ran (``--frames`` for ``frames``).
+
+Every option that takes a value names it in ``--help`` with a metavar of its own (``PATH``,
+``NAME``, ``N``), and flags show none, so the help reads the same under every typer since 0.12
+(from 0.26 typer prints a Python type such as ``<list[Path]>`` or ``<bool>`` where none is given).
 """
 
 from __future__ import annotations
@@ -13,7 +17,9 @@ import os
 import sys
 
 import typer
+import typer.core
 
+from tendon_id import __version__
 from tendon_id.atomic import record_writes
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.progress import interrupt_message
@@ -21,8 +27,52 @@ from tendon_id.progress import reset as reset_progress
 
 __all__ = ["app", "main"]
 
-app = typer.Typer(
+
+def _no_type(ctx=None) -> None:
+    """No type to show beside a parameter."""
+    return None
+
+
+class _TidyHelp:
+    """What the help of a command shows beside a parameter: its metavar, and nothing for a flag.
+
+    Typer from 0.26 shows ``--help <bool>`` for the help flag, which takes no metavar of ours, and an
+    argument's Python type after its metavar (``FILE <path>``); older typer shows neither.
+    """
+
+    def get_help_option(self, ctx):
+        option = super().get_help_option(ctx)
+        if option is not None:
+            option.metavar = ""  # a flag: no value to name
+        return option
+
+    def get_params(self, ctx):
+        params = super().get_params(ctx)
+        for param in params:
+            if param.param_type_name == "argument" and param.metavar:
+                param.display_type_rich = _no_type  # the metavar says it (typer >= 0.26 only reads this)
+        return params
+
+
+class Command(_TidyHelp, typer.core.TyperCommand):
+    """A ``tendon-id`` command (:class:`_TidyHelp`)."""
+
+
+class Group(_TidyHelp, typer.core.TyperGroup):
+    """The ``tendon-id`` program, whose commands are :class:`Command` (:class:`_TidyHelp`)."""
+
+
+class _App(typer.Typer):
+    """A Typer app whose commands are :class:`Command` unless told otherwise."""
+
+    def command(self, *args, **kwargs):
+        kwargs.setdefault("cls", Command)
+        return super().command(*args, **kwargs)
+
+
+app = _App(
     name="tendon-id",
+    cls=Group,
     help="Physics-informed identification of tendon transmissions in cable-driven snake robots.",
     add_completion=False,
     no_args_is_help=True,
@@ -30,9 +80,29 @@ app = typer.Typer(
 )
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(f"tendon-id {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _program(
+    version: bool = typer.Option(
+        False,
+        "--version",
+        metavar="",
+        is_eager=True,  # before the check that a command is given
+        callback=_print_version,
+        help="Print the version (tendon-id X.Y.Z) and exit.",
+    ),
+) -> None:
+    """The options of the program itself, before the command."""
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit code."""
-    argv = list(sys.argv[1:] if argv is None else argv)
+    argv = bare_json(list(sys.argv[1:] if argv is None else argv))
     command = typer.main.get_command(app)
     reset_progress()
     with record_writes() as written:
@@ -58,6 +128,21 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         except Exception as exc:
             return _internal(exc)
+
+
+def bare_json(argv: list[str]) -> list[str]:
+    """``argv`` with a bare ``--json`` read as ``--json -`` (print the JSON).
+
+    ``info`` and ``evaluate`` had ``--json`` as a switch that printed; ``--json PATH`` and
+    ``--json -`` are the convention now, and scripts written for the switch keep working.
+    """
+    out = []
+    for i, arg in enumerate(argv):
+        out.append(arg)
+        after = argv[i + 1] if i + 1 < len(argv) else None
+        if arg == "--json" and (after is None or (after.startswith("-") and after != "-")):
+            out.append("-")
+    return out
 
 
 def flags(command, argv: list[str]) -> dict[str, str]:

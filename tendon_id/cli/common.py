@@ -1,19 +1,84 @@
-"""What several commands share: reading the data files, ``--set``, and how a model's warnings are printed."""
+"""What several commands share: reading the data files, ``--set``, ``--json``, how a model's warnings are printed."""
 
 from __future__ import annotations
 
 import json
+import sys
 import warnings
-from contextlib import contextmanager
+from contextlib import contextmanager, redirect_stdout
 from pathlib import Path
 
 import typer
 
+from tendon_id.atomic import check_writable, json_text, write_json_atomic
 from tendon_id.errors import ConfigError
 
-__all__ = ["MAPPING_HELP", "echo_guard", "parse_sets", "read_all", "training_warnings"]
+__all__ = [
+    "MAPPING_HELP",
+    "JsonOutput",
+    "echo_guard",
+    "json_option",
+    "mapping_option",
+    "parse_sets",
+    "read_all",
+    "training_warnings",
+]
 
 MAPPING_HELP = "A mapping file (TOML) of your own files' columns and units, or a bundled one's name."
+
+
+def mapping_option():
+    """The ``--mapping MAP`` option that reads a user's own files."""
+    return typer.Option(None, "--mapping", metavar="MAP", help=MAPPING_HELP)
+
+
+def json_option(what: str):
+    """The ``--json PATH`` option of every command that has one: ``what`` written to PATH, or printed with ``-``."""
+    return typer.Option(
+        None,
+        "--json",
+        metavar="PATH",
+        help=f"Write {what} as JSON to PATH (.json), or to stdout with '-' (the other lines then go to stderr).",
+    )
+
+
+class JsonOutput:
+    """Where a command's ``--json`` sends its JSON: a file, stdout (``-``), or nowhere (no ``--json``).
+
+    Made before the long work, so that a path that cannot be written fails at once (exit code 2).
+
+    Parameters
+    ----------
+    value : str or None
+        The option's value.
+    """
+
+    def __init__(self, value: str | None):
+        self.to_stdout = value == "-"
+        self.path = None if value in (None, "-") else check_writable(Path(value), "--json", suffixes=(".json",))
+        self._stdout = sys.stdout  # the real one: ``lines()`` swaps it for stderr
+
+    @contextmanager
+    def lines(self):
+        """The command's other output: on stderr while the JSON goes to stdout, so that stdout parses as JSON.
+
+        Anything printed through ``sys.stdout`` is moved, the library's own prints included.
+        """
+        if not self.to_stdout:
+            yield
+            return
+        with redirect_stdout(sys.stderr):
+            yield
+
+    def emit(self, obj, *, strict: bool = True) -> Path | None:
+        """Print or write ``obj`` (see :func:`tendon_id.atomic.json_text`); the path written, if any."""
+        if self.to_stdout:
+            self._stdout.write(json_text(obj, strict=strict) + "\n")
+            self._stdout.flush()
+            return None
+        if self.path is not None:
+            return write_json_atomic(self.path, obj, strict=strict)
+        return None
 
 
 def parse_sets(items: list[str] | None) -> dict:

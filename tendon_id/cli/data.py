@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Optional
 
@@ -11,7 +10,7 @@ import typer
 from tendon_id.atomic import check_writable, hold_interrupt
 from tendon_id.checks import one_of
 from tendon_id.cli.app import app
-from tendon_id.cli.common import MAPPING_HELP, read_all
+from tendon_id.cli.common import JsonOutput, json_option, mapping_option, read_all
 from tendon_id.progress import stage
 from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
@@ -19,18 +18,23 @@ from tendon_id.sim.protocols import PROTOCOL_NAMES
 
 @app.command()
 def simulate(
-    recipe: str = typer.Option("snake12-paper", "--recipe", help="Bundled recipe name or a recipe .toml file."),
-    protocol: str = typer.Option("posterior-3", "--protocol", help=f"{one_of(PROTOCOL_NAMES)}."),
+    recipe: str = typer.Option(
+        "snake12-paper", "--recipe", metavar="NAME", help="Bundled recipe name or a recipe .toml file."
+    ),
+    protocol: str = typer.Option("posterior-3", "--protocol", metavar="NAME", help=f"{one_of(PROTOCOL_NAMES)}."),
     effects: Optional[str] = typer.Option(
         None,
         "--effects",
+        metavar="A,B,...",
         help=f"Comma-separated effects to switch on instead of the recipe's ({', '.join(EFFECT_NAMES)}), or 'none'.",
     ),
     seed: Optional[int] = typer.Option(
-        None, "--seed", help="Random seed (default: the recipe's). The same seed gives the same bytes."
+        None, "--seed", metavar="N", help="Random seed (default: the recipe's). The same seed gives the same bytes."
     ),
-    frames: Optional[int] = typer.Option(None, "--frames", help="Total frames (default: the recipe's)."),
-    out: Path = typer.Option(..., "--out", help="Output file, .parquet or .csv (with a .json sidecar)."),
+    frames: Optional[int] = typer.Option(None, "--frames", metavar="N", help="Total frames (default: the recipe's)."),
+    out: Path = typer.Option(
+        ..., "--out", metavar="FILE", help="Output file, .parquet or .csv (with a .json sidecar)."
+    ),
 ) -> None:
     """Simulate one protocol of a recipe and write it as a recording."""
     from tendon_id.datasets import load_recipe
@@ -46,13 +50,17 @@ def simulate(
 
 @app.command()
 def info(
-    file: Path = typer.Argument(..., help="A recording (.parquet, or .csv with an optional .json sidecar)."),
-    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
-    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
+    file: Path = typer.Argument(
+        ..., metavar="FILE", help="A recording (.parquet, or .csv with an optional .json sidecar)."
+    ),
+    json_out: Optional[str] = json_option("the summary"),
+    mapping: Optional[str] = mapping_option(),
 ) -> None:
     """Summarise a recording: modules, frames, trajectories, ranges and which truth is present."""
+    js = JsonOutput(json_out)
     rec = read_all([file], mapping, param="file")[0]
-    if as_json:
-        typer.echo(json.dumps(rec.describe(), indent=2, default=float))
-        return
-    typer.echo(rec.summary(str(file)))
+    with js.lines():
+        typer.echo(rec.summary(str(file)))
+        written = js.emit(rec.describe())
+        if written:
+            typer.echo(f"wrote {written}")

@@ -15,14 +15,15 @@ from tendon_id.progress import stage
 
 @app.command()
 def demo(
-    out: Path = typer.Option(Path("out"), "--out", help="Folder for the demo's report."),
-    recipe: str = typer.Option("snake12-paper", "--recipe", help="Recipe to run the demo on."),
+    out: Path = typer.Option(Path("out"), "--out", metavar="DIR", help="Folder for the demo's report."),
+    recipe: str = typer.Option("snake12-paper", "--recipe", metavar="NAME", help="Recipe to run the demo on."),
     frames: Optional[int] = typer.Option(
-        None, "--frames", help="Frames per protocol in the summary (default: the demo's small sizes)."
+        None, "--frames", metavar="N", help="Frames per protocol in the summary (default: the demo's small sizes)."
     ),
     models: bool = typer.Option(
         True,
         "--models/--no-models",
+        metavar="",
         help="Train PG-CHTC and PG-CHTC-NS (fast) and calibrate capstan-nonsmooth for the comparison.",
     ),
 ) -> None:

@@ -7,10 +7,18 @@ from typing import Optional
 
 import typer
 
-from tendon_id.atomic import check_writable, hold_interrupt, json_text
+from tendon_id.atomic import check_writable, hold_interrupt
 from tendon_id.checks import one_of
 from tendon_id.cli.app import app
-from tendon_id.cli.common import MAPPING_HELP, echo_guard, parse_sets, read_all, training_warnings
+from tendon_id.cli.common import (
+    JsonOutput,
+    echo_guard,
+    json_option,
+    mapping_option,
+    parse_sets,
+    read_all,
+    training_warnings,
+)
 from tendon_id.extras import require_extra
 from tendon_id.progress import stage
 from tendon_id.zoo.guard import quiet_guard
@@ -19,11 +27,15 @@ from tendon_id.zoo.registry import names as model_names
 
 @app.command()
 def fit(
-    model: str = typer.Argument(..., help=f"Zoo model: {one_of(model_names())}."),
-    data: list[Path] = typer.Option(None, "--data", help="Recording(s) to fit on; repeat for several."),
-    set_: list[str] = typer.Option(None, "--set", help="Model setting key=value (JSON values); repeatable."),
-    out: Path = typer.Option(..., "--out", help="Folder for the fitted model (model.json + arrays.npz)."),
-    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
+    model: str = typer.Argument(..., metavar="MODEL", help=f"Zoo model: {one_of(model_names())}."),
+    data: list[Path] = typer.Option(None, "--data", metavar="FILE", help="Recording(s) to fit on; repeat for several."),
+    set_: list[str] = typer.Option(
+        None, "--set", metavar="KEY=VALUE", help="Model setting key=value (JSON values); repeatable."
+    ),
+    out: Path = typer.Option(
+        ..., "--out", metavar="DIR", help="Folder for the fitted model (model.json + arrays.npz)."
+    ),
+    mapping: Optional[str] = mapping_option(),
 ) -> None:
     """Fit a zoo model on terminal-only labels and save it."""
     from tendon_id import zoo
@@ -42,44 +54,57 @@ def fit(
 
 @app.command()
 def evaluate(
-    model: Path = typer.Option(..., "--model", help="A folder written by 'tendon-id fit'."),
-    data: Path = typer.Option(..., "--data", help="Recording to evaluate on."),
-    as_json: bool = typer.Option(False, "--json", help="Print the metrics as JSON (see the CLI reference)."),
-    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
+    model: Path = typer.Option(..., "--model", metavar="DIR", help="A folder written by 'tendon-id fit'."),
+    data: Path = typer.Option(..., "--data", metavar="FILE", help="Recording to evaluate on."),
+    json_out: Optional[str] = json_option("the metrics"),
+    mapping: Optional[str] = mapping_option(),
 ) -> None:
     """Metrics of a fitted model on a recording: what it predicts against what was measured, where truth exists."""
     from tendon_id import zoo
 
+    js = JsonOutput(json_out)
     m = zoo.load(model)
     rec = read_all([data], mapping)[0]
     score = m.score(rec)
-    if as_json:  # standard JSON: an undefined R^2 (a constant reference) is null
-        typer.echo(json_text({"model": m.name, "frames": rec.n_frames, **score}, strict=True))
-        return
-    first, *rest = m.family.score_lines(m, score, rec, str(data))
-    typer.echo(first)
-    echo_guard(m)
-    for line in rest:
-        typer.echo(line)
+    with js.lines():
+        first, *rest = m.family.score_lines(m, score, rec, str(data))
+        typer.echo(first)
+        echo_guard(m)
+        for line in rest:
+            typer.echo(line)
+        # standard JSON: an undefined R^2 (a constant reference) is null
+        written = js.emit({"model": m.name, "frames": rec.n_frames, **score}, strict=True)
+        if written:
+            typer.echo(f"wrote {written}")
 
 
 @app.command()
 def calibrate(
-    data: list[Path] = typer.Option(None, "--data", help="Recording(s) with terminal labels; repeat for several."),
+    data: list[Path] = typer.Option(
+        None, "--data", metavar="FILE", help="Recording(s) with terminal labels; repeat for several."
+    ),
     model: str = typer.Option(
         "capstan-nonsmooth",
         "--model",
+        metavar="NAME",
         help="A model with a law: a snake's capstan model (capstan-simple, capstan-contact, capstan-nonsmooth, "
         "capstan-const-mu, capstan), or passage-capstan for a bench's files.",
     ),
-    tying: Optional[str] = typer.Option(None, "--tying", help="tied or per-guide (a snake's law; default: tied)."),
-    blocks: Optional[str] = typer.Option(
-        None, "--blocks", help="passage-capstan's effect blocks, comma-separated (stick_slip, smooth_edge, ...)."
+    tying: Optional[str] = typer.Option(
+        None, "--tying", metavar="TYING", help="tied or per-guide (a snake's law; default: tied)."
     ),
-    mapping: Optional[str] = typer.Option(None, "--mapping", help=MAPPING_HELP),
-    posterior: bool = typer.Option(False, "--posterior", help="Also sample the emcee posterior."),
-    out: Path = typer.Option(..., "--out", help="Output folder: calibration.json (+ posterior.json, corner.png)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the multi-start and of the sampler."),
+    blocks: Optional[str] = typer.Option(
+        None,
+        "--blocks",
+        metavar="A,B,...",
+        help="passage-capstan's effect blocks, comma-separated (stick_slip, smooth_edge, ...).",
+    ),
+    mapping: Optional[str] = mapping_option(),
+    posterior: bool = typer.Option(False, "--posterior", metavar="", help="Also sample the emcee posterior."),
+    out: Path = typer.Option(
+        ..., "--out", metavar="DIR", help="Output folder: calibration.json (+ posterior.json, corner.png)."
+    ),
+    seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the multi-start and of the sampler."),
 ) -> None:
     """Constrained calibration with nlopt (a snake's law, a passage's law and blocks), and its emcee posterior."""
     from tendon_id.report.calibration import calibration_model, run_calibration
