@@ -71,7 +71,9 @@ def identifiability(
             f"tied: rank {d['tied']['rank']}/{d['tied']['n_params']}; per-guide: rank {d['per_guide']['rank']}/"
             f"{d['per_guide']['n_params']} ({d['per_guide']['n_unidentifiable']} unidentifiable directions)"
         )
-        typer.echo(f"instrument joint {d['advice']['instrument_joint']}; excite joints {d['advice']['excite_joints']}")
+        # The page's first screen, warnings first: the advice only with its check's verdict.
+        for sentence in d["summary"]:
+            typer.echo(("warning: " if sentence["tone"] == "warning" else "") + sentence["text"])
         typer.echo(wrote)
 
 

@@ -100,6 +100,7 @@ def quick_work(monkeypatch):
         "tied": {"rank": 6, "n_params": 6},
         "per_guide": {"rank": 24, "n_params": 66, "n_unidentifiable": 42},
         "advice": {"instrument_joint": 5, "excite_joints": [1, 2]},
+        "summary": [{"tone": "warning", "text": "misspecified"}, {"tone": "verdict", "text": "rank 6/6"}],
         "nan": float("nan"),
     }
     monkeypatch.setattr("tendon_id.identifiability.analyse", chatty(_Result(ident)))
