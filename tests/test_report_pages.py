@@ -109,6 +109,8 @@ def test_surprises_explain_a_negative_r2_and_a_baseline_that_wins():
     scores = {"p6": {"base": _score(28.8, -7.09), "net": _score(38.0, -12.0)}}
     out = surprises(scores, test, learned={"net"})
     assert "R2 below 0" in out[0] and "-12.00 for net" in out[0]
+    sd = np.mean(np.std(test["p6"].terminal, axis=0))
+    assert f"= {1 - (38.0 / sd) ** 2:.1f}." in out[0]  # R^2 = 1 - RMSE^2 / variance
     # the sd quoted is the held-out terminal tension's own
     assert f"{np.mean(np.std(test['p6'].terminal, axis=0)):.1f} N" in out[0]
     assert "base beats net" in out[1] and "28.8 N against 38.0 N" in out[1]
@@ -133,3 +135,39 @@ def test_closed_loop_lead_ranks_by_settling_and_explains_the_slowest():
     assert "a settles fastest (4.5 s" in lead[0][0] and "b settles slowest (never settles)" in lead[0][0]
     assert "0.90 N m" in lead[1][0] and "most accurate open loop" in lead[1][0]
     assert "one seed" in lead[-1][0]
+
+
+def _rec(angle_deg, tension):
+    """A 12-module recording stand-in: every joint bent by ``angle_deg``, every actuator at ``tension`` [N]."""
+    t = len(tension)
+    angles = np.full((t, 12, 2), np.deg2rad(angle_deg) / np.sqrt(2))
+    return SimpleNamespace(
+        n_modules=12, meta={}, angles=angles, actuator=np.repeat(tension[:, None, None], 12, 1) * [1, 1, 1]
+    )
+
+
+def test_a_baseline_win_is_called_extrapolation_only_where_the_test_leaves_the_training_range():
+    train = _rec(5.0, np.linspace(80, 200, 50))
+    inside = _rec(4.0, np.linspace(90, 190, 50))
+    beyond = _rec(4.0, np.linspace(90, 300, 50))
+    scores = {"p6": {"base": _score(28.8, 0.1), "net": _score(38.0, 0.1)}}
+    said = surprises(scores, {"p6": inside}, {"net"}, train)[0]
+    assert "not extrapolation" in said
+    said = surprises(scores, {"p6": beyond}, {"net"}, train)[0]
+    # 90 + 210 k / 49 exceeds the training's 200 N for k >= 26: 24 of the 50 frames
+    assert "extrapolates" in said and "48% pull harder" in said and "0% of its frames bend" in said
+
+
+def test_closed_loop_lead_explains_a_slow_single_loop_of_the_open_loop_best():
+    # The demo's posterior-3 run: pg-chtc-ns settles worst on the step (10.5 s) but not worst on average.
+    rows = [_row("cn", 1, 8.2, 1.081), _row("cn", 2, 8.3, 0.820)]
+    rows += [_row("pg", 1, 4.8, 0.581), _row("pg", 2, 2.3, 0.516)]
+    rows += [_row("ns", 1, 10.5, 0.561), _row("ns", 2, 3.7, 0.593)]
+    for r in rows:
+        r["rms_deg"] = 0.42
+    lead = loop_lead({"rows": rows}, open_loop={"cn": 32.1, "pg": 29.5, "ns": 22.6})
+    text = " ".join(t for t, _ in lead)
+    assert "cn settles slowest (8.2 s)" in text
+    assert "ns has the slowest single settling, 10.5 s on the step" in text
+    # its torque error on the step (0.561) is no larger than pg's (0.581): the estimate does not explain it
+    assert "no larger than pg's (0.58 N m)" in text and "most accurate open loop (22.6 N" in text

@@ -14,6 +14,10 @@ TERMS = (
 )
 
 
+#: The loops of a step test, by number.
+LOOPS = {1: "step", 2: "return"}
+
+
 def _mean_settle(rows: list[dict], estimator: str, regime: str) -> float:
     """Mean settling time over both loops [s]; infinite when a loop never settles."""
     vals = [r["settle_s"] for r in rows if r["estimator"] == estimator and r["regime"] == regime]
@@ -26,6 +30,39 @@ def _mean_why(rows: list[dict], estimator: str, regime: str, key: str) -> float:
 
 def _s(v: float) -> str:
     return "never settles" if not np.isfinite(v) else f"{v:.1f} s"
+
+
+def _slowest_loop(rows, regime, names, worst, open_loop) -> list[tuple[str, str]]:
+    """A sentence when one loop of another estimator settles slower than the slowest on average."""
+    timed = [r for r in rows if r["regime"] == regime and r["estimator"] in names]
+    slow = max(timed, key=lambda r: np.inf if r["settle_s"] is None else r["settle_s"])
+    if slow["estimator"] == worst:
+        return []
+    e, k = slow["estimator"], slow["loop"]
+    same = [r for r in timed if r["loop"] == k and r["estimator"] != e]
+    fast = min(same, key=lambda r: np.inf if r["settle_s"] is None else r["settle_s"])
+    text = f"{e} has the slowest single settling, {_s(slow['settle_s'] or np.inf)} on the {LOOPS[k]}; "
+    mine, theirs = slow["why"]["torque_error_nm"], fast["why"]["torque_error_nm"]
+    if mine <= 1.1 * theirs:
+        text += (
+            f"its torque error there ({mine:.2f} N m) is no larger than {fast['estimator']}'s ({theirs:.2f} N m), "
+            f"so the estimate's error does not explain it: its angle lingers near the edge of the ±0.5° band "
+            f"(RMS {slow['rms_deg']:.2f}°), which one seed may not show again."
+        )
+    else:
+        text += f"its torque error there is {mine:.2f} N m against {theirs:.2f} N m for {fast['estimator']}."
+    return [(text + _open_loop_note(e, open_loop, names), "plain")]
+
+
+def _open_loop_note(e: str, open_loop, names) -> str:
+    """A sentence when ``e``, slow in the loop, was the most accurate open loop; else nothing."""
+    if not open_loop or e not in open_loop or open_loop[e] > min(open_loop.get(n, np.inf) for n in names):
+        return ""
+    return (
+        f" {e} was the most accurate open loop ({open_loop[e]:.1f} N RMSE at the intermediate joints): an "
+        "accuracy averaged over every joint and tendon does not rank the torque errors at the few joints a step "
+        "moves, nor how an estimate's error feeds back through the loop."
+    )
 
 
 def lead_sentences(result: Mapping, open_loop: Mapping[str, float] | None = None) -> list[tuple[str, str]]:
@@ -55,17 +92,15 @@ def lead_sentences(result: Mapping, open_loop: Mapping[str, float] | None = None
         out.append((text, "verdict"))
         if worst != best:
             tq = {e: _mean_why(rows, e, regime, "torque_error_nm") for e in (best, worst)}
-            why = (
-                f"Why: what the controller feels is the joint torque an estimate implies; at the stepped joints "
-                f"{worst}'s is off by {tq[worst]:.2f} N m (RMS) against {tq[best]:.2f} N m for {best}."
-            )
-            if open_loop and worst in open_loop and open_loop[worst] <= min(open_loop.get(e, np.inf) for e in names):
-                why += (
-                    f" {worst} was the most accurate open loop (intermediate joints, {open_loop[worst]:.1f} N RMSE): "
-                    "an accuracy averaged over every joint and tendon does not rank the torque errors at the few "
-                    "joints a step moves, nor how an estimate's error feeds back through the loop."
+            out.append(
+                (
+                    f"Why: what the controller feels is the joint torque an estimate implies; at the stepped joints "
+                    f"{worst}'s is off by {tq[worst]:.2f} N m (RMS) against {tq[best]:.2f} N m for {best}."
+                    + _open_loop_note(worst, open_loop, names),
+                    "plain",
                 )
-            out.append((why, "plain"))
+            )
+        out += _slowest_loop(rows, regime, names, worst, open_loop)
     seeds = max((r["seeds"] for r in rows), default=1)
     out.append(
         (

@@ -82,9 +82,17 @@ def _total_wrap(rec: Recording) -> np.ndarray:
     return backbone_wrap(rec.angles, alpha0).sum(axis=-1)
 
 
-def beyond_training(train: Recording, test: Recording) -> float:
-    """Share of ``test``'s frames whose total wrap exceeds the largest seen in ``train`` [-]."""
-    return float(np.mean(_total_wrap(test) > np.max(_total_wrap(train))))
+def beyond_training(train: Recording, test: Recording) -> dict[str, float]:
+    """Shares of ``test``'s frames outside what ``train`` saw [-].
+
+    ``wrap``: the terminal set's total wrap exceeds the largest in training; ``tension``: an
+    actuator-side tension of the terminal set is above the largest in training.
+    """
+    n = test.n_modules
+    return {
+        "wrap": float(np.mean(_total_wrap(test) > np.max(_total_wrap(train)))),
+        "tension": float(np.mean(np.any(test.actuator[:, n - 1] > np.max(train.actuator[:, n - 1]), axis=-1))),
+    }
 
 
 def surprises(
@@ -110,11 +118,13 @@ def surprises(
     if negative:
         worst = min(negative, key=lambda x: x[2])
         sd = float(np.mean(np.std(test[worst[0]].terminal, axis=0)))
+        rmse = scores[worst[0]][worst[1]]["terminal"]["rmse"]
         out.append(
             f"R2 below 0 ({len(negative)} cells, down to {worst[2]:.2f} for {worst[1]} on {worst[0]}) means the model "
-            "predicts the held-out terminal tension worse than that set's own mean would: R2 divides the error by the "
-            f"variance of the reference, and on {worst[0]} the terminal tension varies by only {sd:.1f} N (sd), so a "
-            "bias of a few newtons sends it far below 0. Read the RMSE, in newtons, first."
+            "predicts the held-out terminal tension worse than that set's own mean would. R2 is 1 - RMSE^2 / variance "
+            f"per tendon, and on {worst[0]} the terminal tension varies by only {sd:.1f} N (sd), so an error of "
+            f"{rmse:.1f} N RMSE lands near 1 - ({rmse:.1f} / {sd:.1f})^2 = {1 - (rmse / sd) ** 2:.1f}. "
+            "Read the RMSE, in newtons, first."
         )
     for protocol, by in scores.items():
         for base in sorted(set(by) - learned):
@@ -128,13 +138,17 @@ def surprises(
                 )
                 if train is not None:
                     share = beyond_training(train, test[protocol])
-                    text += (
-                        f" {share:.0%} of its frames bend the chain further (total wrap) than any training frame: "
-                        "a learned ratio extrapolates there, a capstan law's exponential does not need to."
-                        if share > 0.01
-                        else " Its wraps stay inside the training range, so this is not extrapolation; the learned "
-                        "model fits this protocol's loading history worse."
-                    )
+                    if max(share.values()) > 0.01:
+                        text += (
+                            f" {share['wrap']:.0%} of its frames bend the chain further (total wrap) and "
+                            f"{share['tension']:.0%} pull harder than any training frame: a learned ratio "
+                            "extrapolates there, while a capstan law's exponential holds at any wrap and tension."
+                        )
+                    else:
+                        text += (
+                            " Its wraps and tensions stay inside the training range, so it is not extrapolation; "
+                            "what else differs on this protocol is not measured here."
+                        )
                 out.append(text)
     return out
 

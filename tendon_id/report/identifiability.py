@@ -180,9 +180,14 @@ def band_width_figure(result: IdentifiabilityResult):
         ax2.legend(fontsize=8)
         ax2.grid(alpha=0.3)
     else:
-        ax2.text(0.5, 0.5, "no intermediate truth in this data", ha="center", va="center")
-        ax2.set_axis_off()
+        _no_truth(ax2)
     return fig
+
+
+def _no_truth(ax) -> None:
+    """An empty panel that says why it is empty."""
+    ax.text(0.5, 0.5, "no intermediate truth in this data", ha="center", va="center")
+    ax.set_axis_off()
 
 
 def advice_figure(result: IdentifiabilityResult):
@@ -222,8 +227,7 @@ def advice_figure(result: IdentifiabilityResult):
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
     else:
-        ax.text(0.5, 0.5, "no intermediate truth in this data", ha="center", va="center")
-        ax.set_axis_off()
+        _no_truth(ax)
     return fig
 
 

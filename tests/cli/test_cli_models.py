@@ -13,13 +13,6 @@ def run(capsys, *argv):
     return code, out.out, out.err
 
 
-@pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    path = tmp_path_factory.mktemp("data") / "p6.parquet"
-    assert main(["simulate", "--protocol", "posterior-6", "--frames", "600", "--seed", "3", "--out", str(path)]) == 0
-    return path
-
-
 def test_fit_then_evaluate_json(recording, tmp_path, capsys):
     code, out, err = run(
         capsys,

@@ -24,13 +24,6 @@ def run(capsys, *argv):
 
 
 @pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    path = tmp_path_factory.mktemp("data") / "p6.parquet"
-    assert main(["simulate", "--protocol", "posterior-6", "--frames", "600", "--seed", "3", "--out", str(path)]) == 0
-    return path
-
-
-@pytest.fixture(scope="module")
 def model(recording, tmp_path_factory):
     folder = tmp_path_factory.mktemp("model") / "m"
     assert main(["fit", "capstan-simple", "--data", str(recording), "--out", str(folder)]) == 0
