@@ -53,21 +53,24 @@ def write_diagnosis(base, split, path: Path, *, progress: bool | None = None):
 
 def write_closed_loop(
     recipe: str, fitted: dict, path: Path, *, open_loop: dict | None = None, progress: bool | None = None
-) -> Path:
+) -> tuple[Path, str]:
     """The posterior-3 step test (one seed) with the demo's models (by zoo name) and the oracle in the loop.
 
     ``open_loop`` (zoo name to open-loop intermediate-joint RMSE [N]) lets the page compare the rankings.
+    Returns the page's path and its first sentence.
     """
     from tendon_id.benchmarks.table3 import closed_loop_tests
     from tendon_id.report.closed_loop import write_table3_page
+    from tendon_id.report.closed_loop_lead import lead_sentences
 
     t0 = time.perf_counter()
     models = {"oracle": None, **fitted}
     result = closed_loop_tests(recipe, models, [0], ["posterior-3"], progress=progress)
     result.update(recipe=recipe, preset="fast", seconds=time.perf_counter() - t0, fit_seconds=0.0)
-    return write_table3_page(
+    page = write_table3_page(
         result, path, made_by="tendon-id demo (one seed; the full table: benchmark table3)", open_loop=open_loop
     )
+    return page, lead_sentences(result, open_loop)[0][0]
 
 
 def run_demo(
@@ -159,14 +162,16 @@ def run_demo(
         )
         by_name = {name: open_loop[LABELS[name]] for name in fitted}
         with stage("closed loop"):
-            loop = write_closed_loop(recipe, fitted, out / "closed_loop.html", open_loop=by_name, progress=progress)
+            loop, loop_finding = write_closed_loop(
+                recipe, fitted, out / "closed_loop.html", open_loop=by_name, progress=progress
+            )
         page.heading("Closed loop")
         page.link(
             loop.name,
             loop.name,
             before="The estimators inside a 10 Hz hybrid controller on the simulated robot, a 5 degree step of "
             "joints 10-12 and back (the paper's Fig. 6 and Table III, one seed; the full table is "
-            "tendon-id benchmark table3): ",
+            f"tendon-id benchmark table3). {loop_finding} ",
             after=".",
         )
     else:

@@ -53,13 +53,14 @@ def tension_trace_figure(rec: Recording, trajectory: str | None = None):
     for ax, j in zip(axes[0], sets):
         joint = rec.terminal[mask] if j == n else rec.joint_truth[mask, j - 1]
         for i in range(3):
-            ax.plot(t, rec.actuator[mask, j - 1, i], color=f"C{i}", lw=1.2, label=f"tendon {i + 1}: actuator T[1,{j}]")
-            ax.plot(t, joint[:, i], color=f"C{i}", lw=1.0, ls="--", label=f"tendon {i + 1}: joint side T[{j},{j}]")
+            label = f"tendon {i + 1}: actuator side T[1,j]"
+            ax.plot(t, rec.actuator[mask, j - 1, i], color=f"C{i}", lw=1.2, label=label)
+            ax.plot(t, joint[:, i], color=f"C{i}", lw=1.0, ls="--", label=f"tendon {i + 1}: joint side T[j,j]")
         ax.set_title(f"set {j}" + (" (terminal, measured)" if j == n else " (joint side: simulator truth)"), fontsize=9)
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("tension [N]")
-    axes[0][-1].legend(fontsize=6)
+    fig.legend(*axes[0][-1].get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=7)
     fig.suptitle(f"trajectory {traj}: solid actuator side, dashed joint side of the same set", fontsize=10)
     return fig
 
