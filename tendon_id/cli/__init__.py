@@ -8,7 +8,7 @@ options, outputs and optional dependencies before the long part starts, name the
 the interrupt's message (:func:`tendon_id.progress.stage`), and hold a Ctrl-C over a group of
 output files that belong together (:func:`tendon_id.atomic.hold_interrupt`).
 
-Every command with ``--json`` (info, evaluate, benchmark, identifiability, diagnose) writes its
+Every command writes its
 JSON to ``--json PATH``, or prints it alone on stdout with ``--json -``, its other lines then on
 stderr (:class:`~tendon_id.cli.common.JsonOutput`). ``tendon-id --version`` prints the version.
 

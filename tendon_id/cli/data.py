@@ -35,17 +35,25 @@ def simulate(
     out: Path = typer.Option(
         ..., "--out", metavar="FILE", help="Output file, .parquet or .csv (with a .json sidecar)."
     ),
+    json_out: Optional[str] = json_option("the recording's summary"),
 ) -> None:
     """Simulate one protocol of a recipe and write it as a recording."""
     from tendon_id.datasets import load_recipe
     from tendon_id.sim import simulate as run
 
     check_writable(out, "--out", suffixes=(".parquet", ".csv"))
-    with stage("simulate"):
-        rec = run(load_recipe(recipe), protocol, seed=seed, effects=effects, frames=frames).recording
-    with stage("writing the recording"), hold_interrupt():  # a .csv and its .json sidecar together
-        path = rec.write(out)
-    typer.echo(f"wrote {path}: {rec.n_frames} frames, {len(rec.trajectories)} trajectories, {rec.n_modules} modules")
+    js = JsonOutput(json_out)
+    with js.lines():
+        with stage("simulate"):
+            rec = run(load_recipe(recipe), protocol, seed=seed, effects=effects, frames=frames).recording
+        with stage("writing the recording"), hold_interrupt():  # a .csv and its .json sidecar together
+            path = rec.write(out)
+        typer.echo(
+            f"wrote {path}: {rec.n_frames} frames, {len(rec.trajectories)} trajectories, {rec.n_modules} modules"
+        )
+        written = js.emit({"path": str(path), **rec.describe()}, strict=True)
+        if written:
+            typer.echo(f"wrote {written}")
 
 
 @app.command()

@@ -9,7 +9,7 @@ import typer
 
 from tendon_id.atomic import check_writable
 from tendon_id.cli.app import app
-from tendon_id.cli.common import training_warnings
+from tendon_id.cli.common import JsonOutput, json_option, training_warnings
 from tendon_id.progress import stage
 
 
@@ -26,11 +26,18 @@ def demo(
         metavar="",
         help="Train PG-CHTC and PG-CHTC-NS (fast) and calibrate capstan-nonsmooth for the comparison.",
     ),
+    json_out: Optional[str] = json_option("the pages written"),
 ) -> None:
     """The main job on the default recipe: simulate, compare capstan-nonsmooth and the cascades in OUT/summary.html."""
     from tendon_id.demo import run_demo
 
     check_writable(out, "--out", folder=True)
-    with stage("demo"), training_warnings():
-        path = run_demo(out, recipe=recipe, frames=frames, models=models)
-    typer.echo(f"wrote {path}")
+    js = JsonOutput(json_out)
+    with js.lines():
+        with stage("demo"), training_warnings():
+            path = run_demo(out, recipe=recipe, frames=frames, models=models)
+        typer.echo(f"wrote {path}")
+        pages = sorted(str(p) for p in Path(out).glob("*.html"))
+        written = js.emit({"summary": str(path), "pages": pages, "recipe": recipe}, strict=True)
+        if written:
+            typer.echo(f"wrote {written}")

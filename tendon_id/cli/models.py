@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import time
 from pathlib import Path
 from typing import Optional
 
@@ -36,20 +38,29 @@ def fit(
         ..., "--out", metavar="DIR", help="Folder for the fitted model (model.json + arrays.npz)."
     ),
     mapping: Optional[str] = mapping_option(),
+    json_out: Optional[str] = json_option("what was fitted"),
 ) -> None:
     """Fit a zoo model on terminal-only labels and save it."""
     from tendon_id import zoo
 
     check_writable(out, "--out", folder=True)
+    js = JsonOutput(json_out)
     m = zoo.make(model, **parse_sets(set_))
     recs = read_all(data, mapping)
-    with stage(f"fit {model}"), quiet_guard(), training_warnings():  # the guard is printed below, plainly
-        m.fit(recs)
-    with stage("writing the model"), hold_interrupt():  # model.json and arrays.npz: both or neither new
-        m.save(out)
-    frames = sum(r.n_frames for r in recs)
-    typer.echo(f"fitted {model} on {frames} frames; saved to {out}")
-    echo_guard(m)
+    with js.lines():
+        t0 = time.perf_counter()
+        with stage(f"fit {model}"), quiet_guard(), training_warnings():  # the guard is printed below, plainly
+            m.fit(recs)
+        seconds = time.perf_counter() - t0
+        with stage("writing the model"), hold_interrupt():  # model.json and arrays.npz: both or neither new
+            m.save(out)
+        frames = sum(r.n_frames for r in recs)
+        typer.echo(f"fitted {model} on {frames} frames; saved to {out}")
+        echo_guard(m)
+        summary = {"model": model, "frames": frames, "out": str(out), "seconds": seconds}
+        written = js.emit({**summary, "guard": getattr(m, "guard_", None)}, strict=True)
+        if written:
+            typer.echo(f"wrote {written}")
 
 
 @app.command()
@@ -105,6 +116,7 @@ def calibrate(
         ..., "--out", metavar="DIR", help="Output folder: calibration.json (+ posterior.json, corner.png)."
     ),
     seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the multi-start and of the sampler."),
+    json_out: Optional[str] = json_option("calibration.json's content and the files written"),
 ) -> None:
     """Constrained calibration with nlopt (a snake's law, a passage's law and blocks), and its emcee posterior."""
     from tendon_id.report.calibration import calibration_model, run_calibration
@@ -112,14 +124,20 @@ def calibrate(
     if posterior:
         require_extra("posterior", "--posterior (its corner plot)")
     check_writable(out, "--out", folder=True)
+    js = JsonOutput(json_out)
     settings = {"tying": tying} if tying is not None else {}
     if blocks is not None:
         settings["blocks"] = [b.strip() for b in blocks.split(",") if b.strip()]
     calibration_model(model, settings, seed)  # a bad model, setting or block fails before the data is read
     recs = read_all(data, mapping)
-    with stage(f"calibrate {model}" + (" and its posterior" if posterior else "")):
-        written = run_calibration(
-            recs, model=model, settings=settings, posterior=posterior, out=out, seed=seed, report=typer.echo
-        )
-    for path in written:
-        typer.echo(f"wrote {path}")
+    with js.lines():
+        with stage(f"calibrate {model}" + (" and its posterior" if posterior else "")):
+            written = run_calibration(
+                recs, model=model, settings=settings, posterior=posterior, out=out, seed=seed, report=typer.echo
+            )
+        for path in written:
+            typer.echo(f"wrote {path}")
+        calibration = json.loads((Path(out) / "calibration.json").read_text())
+        summary = js.emit({"files": [str(p) for p in written], "calibration": calibration}, strict=True)
+        if summary:
+            typer.echo(f"wrote {summary}")

@@ -14,7 +14,7 @@ from tendon_id.cli import main
 from tendon_id.cli.app import bare_json
 
 COMMANDS = ["simulate", "info", "fit", "evaluate", "calibrate", "benchmark", "identifiability", "diagnose", "demo"]
-JSON_COMMANDS = ["info", "evaluate", "benchmark", "identifiability", "diagnose"]
+JSON_COMMANDS = COMMANDS  # every command takes --json PATH|-
 
 
 def run(capsys, *argv):
@@ -107,6 +107,26 @@ def quick_work(monkeypatch):
 
 # command -> (its arguments, a check of its JSON, a line of its human output)
 CASES = {
+    "simulate": (
+        ["simulate", "--protocol", "posterior-6", "--frames", "300", "--out", "{tmp}/s.parquet"],
+        lambda d: d["n_frames"] == 300 and d["path"].endswith("s.parquet"),
+        "300 frames",
+    ),
+    "fit": (
+        ["fit", "capstan-simple", "--data", "{rec}", "--out", "{tmp}/m"],
+        lambda d: d["model"] == "capstan-simple" and d["frames"] == 600,
+        "fitted capstan-simple on 600 frames",
+    ),
+    "calibrate": (
+        ["calibrate", "--data", "{rec}", "--model", "capstan-simple", "--out", "{tmp}/cal"],
+        lambda d: d["files"][0].endswith("calibration.json") and d["calibration"],
+        "calibration.json",
+    ),
+    "demo": (
+        ["demo", "--no-models", "--frames", "300", "--out", "{tmp}/demo"],
+        lambda d: d["summary"].endswith("summary.html") and d["pages"] == [d["summary"]],
+        "summary.html",
+    ),
     "info": (["info", "{rec}"], lambda d: d["n_frames"] == 600, "modules       12"),
     "evaluate": (
         ["evaluate", "--model", "{model}", "--data", "{rec}"],
