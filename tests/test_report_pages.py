@@ -132,7 +132,10 @@ def test_closed_loop_lead_ranks_by_settling_and_explains_the_slowest():
     rows = [_row("oracle", k, 1.5, 0.02) for k in (1, 2)]
     rows += [_row("a", 1, 4.0, 0.3), _row("a", 2, 5.0, 0.3), _row("b", 1, 9.0, 0.9), _row("b", 2, None, 0.9)]
     lead = loop_lead({"rows": rows}, open_loop={"a": 20.0, "b": 10.0})
-    assert "a settles fastest (4.5 s" in lead[0][0] and "b settles slowest (never settles)" in lead[0][0]
+    assert (
+        "a settles fastest (4.5 s" in lead[0][0]
+        and "b settles slowest (it does not settle within the test in 1 of its 2 runs" in lead[0][0]
+    )
     assert "0.90 N m" in lead[1][0] and "most accurate open loop" in lead[1][0]
     assert "one seed" in lead[-1][0]
 

@@ -77,8 +77,8 @@ def benchmark(
             result = b(**kwargs)
         typer.echo(format_table(result))
         with stage("writing the results"), hold_interrupt():
-            # NaN and Infinity kept as Python writes them, as this file always had them
-            written = js.emit(result, strict=False)
+            # standard JSON, as every command's: an undefined number (NaN, infinity) is null
+            written = js.emit(result, strict=True)
             if written:
                 typer.echo(f"wrote {written}")
             if out is not None:

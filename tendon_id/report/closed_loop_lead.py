@@ -28,6 +28,16 @@ def _mean_why(rows: list[dict], estimator: str, regime: str, key: str) -> float:
     return float(np.mean([r["why"][key] for r in rows if r["estimator"] == estimator and r["regime"] == regime]))
 
 
+def _unsettled(rows: list[dict], estimator: str, regime: str) -> str:
+    """How often an estimator that did not always settle failed to: ``"never settles"``, or per seed and loop."""
+    mine = [r for r in rows if r["estimator"] == estimator and r["regime"] == regime]
+    runs = sum(r["seeds"] for r in mine)
+    missed = sum(r["seeds"] - r.get("settle_s_reached", 0 if r["settle_s"] is None else r["seeds"]) for r in mine)
+    if missed >= runs:
+        return "never settles"
+    return f"it does not settle within the test in {missed} of its {runs} runs, seeds times step and return"
+
+
 def _s(v: float) -> str:
     return "never settles" if not np.isfinite(v) else f"{v:.1f} s"
 
@@ -88,7 +98,11 @@ def lead_sentences(result: Mapping, open_loop: Mapping[str, float] | None = None
         text = f"{regime}: {best} settles fastest ({_s(settle[best])} on average over the step and the return)"
         if "oracle" in {r["estimator"] for r in rows}:
             text += f", against {_s(_mean_settle(rows, 'oracle', regime))} with the true tensions (oracle)"
-        text += f"; {worst} settles slowest ({_s(settle[worst])})." if worst != best else "."
+        if worst != best:
+            slowest = _s(settle[worst]) if np.isfinite(settle[worst]) else _unsettled(rows, worst, regime)
+            text += f"; {worst} settles slowest ({slowest})."
+        else:
+            text += "."
         out.append((text, "verdict"))
         if worst != best:
             tq = {e: _mean_why(rows, e, regime, "torque_error_nm") for e in (best, worst)}
