@@ -16,11 +16,9 @@ from pathlib import Path
 from tendon_id import zoo
 from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split
 from tendon_id.datasets import DEFAULT_RECIPE, load
-from tendon_id.identifiability import analyse
 from tendon_id.progress import stage
 from tendon_id.report.comparison import add_comparison
 from tendon_id.report.html import HtmlPage
-from tendon_id.report.identifiability import write_report
 from tendon_id.report.summary import add_recordings
 from tendon_id.report.truth import truth_sentence
 
@@ -32,6 +30,10 @@ DEMO_FRAMES = {"terminal-only": 5000, "posterior-3": 5000, "posterior-6": 3000, 
 
 def write_identifiability(rec, path: Path, *, progress: bool | None = None):
     """The identifiability report (and its JSON beside it) of one recording; returns the page's path and the result."""
+    # Imported here, as the diagnosis's are: looked up when called, never bound when this module loads.
+    from tendon_id.identifiability import analyse
+    from tendon_id.report.identifiability import write_report
+
     result = analyse(rec, progress=progress)
     return write_report(result, path, path.with_suffix(".json")), result
 
