@@ -18,19 +18,24 @@ def percent(x: float) -> str:
     return f"{round(100 * x) + 0}%"
 
 
+def in_base(result: DiagnosisResult) -> set[str]:
+    """The effects the base already has (the diagnosis skipped them as candidates)."""
+    return {e for e, why in result.skipped.items() if "base" in why}
+
+
 def truth_rows(result: DiagnosisResult) -> list[list[object]]:
     """One row per effect of the truth or the library: in the truth, in the base, as a candidate, named."""
     truth = set(result.truth["effects"]) if result.truth else set()
-    in_base = {e for e, why in result.skipped.items() if "base" in why}
+    base = in_base(result)
     cands = {c.effect: c for c in result.candidates}
     rows = []
-    for effect in sorted(truth | set(cands) | in_base, key=lambda e: (e not in truth, e)):
+    for effect in sorted(truth | set(cands) | base, key=lambda e: (e not in truth, e)):
         c = cands.get(effect)
         rows.append(
             [
                 effect,
                 "yes" if effect in truth else ("(refines " + REFINES[effect] + ")" if effect in REFINES else "no"),
-                "yes" if effect in in_base else "no",
+                "yes" if effect in base else "no",
                 "-" if c is None else percent(c.gap_closed) + (" (at a bound)" if c.at_bound else ""),
                 "yes" if effect in result.verdict.effects else "no",
             ]
@@ -71,8 +76,7 @@ def lead_sentences(result: DiagnosisResult) -> list[tuple[str, str]]:
         return out
     out.append((truth_sentence(result.truth), "truth"))
     truth = set(result.truth.get("effects") or [])
-    in_base = {e for e, why in result.skipped.items() if "base" in why}
-    missing = sorted(truth - in_base)
+    missing = sorted(truth - in_base(result))
     closed = {c.effect: c.gap_closed for c in result.candidates}
     named = set(v.effects)
     if named:

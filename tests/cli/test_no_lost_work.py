@@ -47,13 +47,6 @@ def ctrl_c_raises():
     signal.signal(signal.SIGINT, previous)
 
 
-@pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    path = tmp_path_factory.mktemp("data") / "p6.parquet"
-    assert main(["simulate", "--protocol", "posterior-6", "--frames", "600", "--seed", "3", "--out", str(path)]) == 0
-    return path
-
-
 # ---- 1. outputs, inputs and extras are checked before the long part -------------------------------
 
 
