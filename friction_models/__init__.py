@@ -9,7 +9,7 @@ Equation numbers refer to the PG-CHTC paper (``shared/seed/pg-chtc-paper.txt``).
 
 from friction_models.bending_stiffness import SLACK_FLOOR_N, bending_loss, edges_with_loss
 from friction_models.capstan import capstan_exponent, capstan_ratio
-from friction_models.contact_gate import hard_contact_gate, smooth_contact_gate
+from friction_models.contact_gate import dead_zone_wrap, hard_contact_gate, smooth_contact_gate
 from friction_models.guide_wear import guide_wear_factors
 from friction_models.maxwell_slip import maxwell_slip, maxwell_slip_output
 from friction_models.mu_laws import affine_cosine_mu, constant_mu, velocity_dependent_mu
@@ -24,6 +24,7 @@ __all__ = [
     "capstan_exponent",
     "capstan_ratio",
     "constant_mu",
+    "dead_zone_wrap",
     "edges_with_loss",
     "guide_wear_factors",
     "hard_contact_gate",

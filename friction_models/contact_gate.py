@@ -49,3 +49,32 @@ def smooth_contact_gate(alpha: ArrayLike, alpha_c: float, width: float = 0.01) -
     z = (np.asarray(alpha, dtype=float) - alpha_c) / width
     # 0.5 * (1 + tanh(z/2)) is the logistic function without overflow for large |z|.
     return 0.5 * (1.0 + np.tanh(0.5 * z))
+
+
+def dead_zone_wrap(alpha: ArrayLike, alpha_c: float) -> NDArray[np.float64]:
+    """Wrap that presses on the hole's wall, ``alpha_eff = max(alpha - alpha_c, 0)`` [rad] (:doc:`/guide/geometry`).
+
+    A tendon in a hole with radial clearance turns freely through the clearance angle
+    ``alpha_c``; only the rest of its turn is taken by contact with the wall, so the
+    capstan exponent grows from zero continuously as the wrap passes ``alpha_c`` instead of
+    jumping there as with :func:`hard_contact_gate`.  This is the clearance of a
+    tendon-sheath or guide hole treated as a backlash-type dead zone in the wrap
+    (Kaneko, Yamashita & Tanie, "Basic considerations on transmission characteristics
+    for a wire-driven robot", Advanced Robotics 1991; Do, Tjahjowidodo, Lau & Phee,
+    Mechatronics 2014, §2 on the clearance between tendon and sheath).
+
+    Parameters
+    ----------
+    alpha : array_like
+        Wrap angle [rad].
+    alpha_c : float
+        Clearance angle of the hole [rad], ``>= 0``.
+
+    Returns
+    -------
+    ndarray of float
+        Effective wrap [rad], same shape as ``alpha``, in ``[0, alpha]``.
+    """
+    if alpha_c < 0:
+        raise ValueError("alpha_c must be a non-negative angle in rad")
+    return np.maximum(np.asarray(alpha, dtype=float) - alpha_c, 0.0)

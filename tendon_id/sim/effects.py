@@ -16,10 +16,22 @@ from tendon_id.errors import ConfigError
 
 @dataclass(frozen=True)
 class Contact:
-    """``contact``: the hole's clearance gate ``beta = 1[alpha > alpha_c]`` (paper Eq. (6)).
+    """``contact``: the hole's clearance ``alpha_c`` (a property of the robot, ``RobotGeometry.alpha_c``).
 
-    The clearance angle is a property of the robot (``RobotGeometry.alpha_c``).
+    Parameters
+    ----------
+    gate : {"dead_zone", "hard"}
+        How the clearance acts. ``"dead_zone"`` (default): a tendon turns freely through the
+        hole's clearance and presses on its wall only by the rest of the turn, so each hole
+        takes ``alpha_eff = max(alpha - alpha_c, 0)`` of the wrap (:func:`friction_models.dead_zone_wrap`).
+        ``"hard"``: the paper's gate ``beta = 1[alpha > alpha_c]`` on the whole wrap (paper Eq. (6)).
     """
+
+    gate: str = "dead_zone"
+
+    def __post_init__(self) -> None:
+        if self.gate not in ("dead_zone", "hard"):
+            raise ConfigError(f"contact.gate must be 'dead_zone' or 'hard', got {self.gate!r}")
 
 
 #: The smooth edge's default width, measured on a real cable transmission (see ``StickSlip.edge_width``).
@@ -32,12 +44,21 @@ class StickSlip:
 
     Parameters
     ----------
-    driver : {"tension", "motion"}
+    driver : {"tension", "motion", "elastic"}
         What makes a guide slip. ``"tension"`` (default, :doc:`/guide/simulator`): only a change of the
         tension entering the guide, as in a tendon-sheath whose path is fixed (Kaneko).
         ``"motion"``: also the tendon's sliding through the guide when the joints beyond it
         move and lengthen or shorten its path; a sliding tendon is on the slip edge of its
         direction of motion (kinetic Coulomb friction), whatever the tension does.
+        ``"elastic"``: both, from one model: an elastic tendon (axial stiffness ``EA``) between
+        guides that each hold a capstan band, solved quasi-statically each frame
+        (:mod:`tendon_id.sim.elastic_chain`). ``"tension"`` is its limit ``EA -> 0`` and
+        ``"motion"`` its limit ``EA -> inf``.
+    EA : float
+        Axial stiffness of the tendon [N] (``"elastic"`` only). Default 3.5e4: a 7x19
+        stainless-steel wire rope of 0.9 mm diameter, metallic area about 0.35 mm^2 (fill factor
+        0.55) at the rope modulus of about 100 GPa of stranded ropes (Feyrer, *Wire Ropes:
+        Tension, Endurance, Reliability*, 2nd ed., Springer 2015, §1.4 and Table 1.8).
     slide_threshold : float
         Path-length rate beyond the guide [m/s] above which the tendon slides rather than
         taking the change up in elastic strain (``"motion"`` only). Default 1e-4 (0.01 mm per
@@ -87,13 +108,16 @@ class StickSlip:
     """
 
     driver: str = "tension"
+    EA: float = 3.5e4
     slide_threshold: float = 1e-4
     edge: str = "sharp"
     edge_width: float = BENCH_EDGE_WIDTH
 
     def __post_init__(self) -> None:
-        if self.driver not in ("tension", "motion"):
-            raise ConfigError(f"stick_slip.driver must be 'tension' or 'motion', got {self.driver!r}")
+        if self.driver not in ("tension", "motion", "elastic"):
+            raise ConfigError(f"stick_slip.driver must be 'tension', 'motion' or 'elastic', got {self.driver!r}")
+        if not (isinstance(self.EA, (int, float)) and self.EA > 0):
+            raise ConfigError(f"stick_slip.EA must be a positive axial stiffness in N, got {self.EA!r}")
         if not self.slide_threshold > 0:
             raise ConfigError(f"stick_slip.slide_threshold must be a positive speed in m/s, got {self.slide_threshold}")
         if self.edge not in ("sharp", "smooth"):
@@ -358,5 +382,7 @@ class Effects:
                 d = {"guides": {str(k): v for k, v in self.params[name].guides.items()}}
             if name == "stick_slip" and d["edge"] == "sharp":  # the width does not act: recipes keep their hash
                 d = {k: v for k, v in d.items() if k not in ("edge", "edge_width")}
+            if name == "stick_slip" and d["driver"] != "elastic":  # EA acts only in the elastic chain
+                d.pop("EA")
             params[name] = d
         return {"enabled": list(self.enabled), "params": params}
