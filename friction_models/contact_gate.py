@@ -57,11 +57,10 @@ def dead_zone_wrap(alpha: ArrayLike, alpha_c: float) -> NDArray[np.float64]:
     A tendon in a hole with radial clearance turns freely through the clearance angle
     ``alpha_c``; only the rest of its turn is taken by contact with the wall, so the
     capstan exponent grows from zero continuously as the wrap passes ``alpha_c`` instead of
-    jumping there as with :func:`hard_contact_gate`.  This is the clearance of a
-    tendon-sheath or guide hole treated as a backlash-type dead zone in the wrap
-    (Kaneko, Yamashita & Tanie, "Basic considerations on transmission characteristics
-    for a wire-driven robot", Advanced Robotics 1991; Do, Tjahjowidodo, Lau & Phee,
-    Mechatronics 2014, §2 on the clearance between tendon and sheath).
+    jumping there as with :func:`hard_contact_gate`.  It is the clearance treated as the
+    dead-zone nonlinearity of a backlash (Tao & Kokotovic, "Adaptive control of plants
+    with unknown dead-zones", IEEE Trans. Autom. Control 39(1):59-68, 1994), applied to the
+    wrap that enters the capstan exponent of the guide (paper Eq. (5)).
 
     Parameters
     ----------
