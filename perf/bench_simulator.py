@@ -43,10 +43,13 @@ def naive_stick_slip_chain(log_act: np.ndarray, phi: np.ndarray, reset: np.ndarr
     return y
 
 
-def simulate_chunk(seed: int, frames: int) -> dict:
-    """One chunk of the load check, in a worker: its frames, time, checksum and the worker's peak memory."""
+def simulate_chunk(seed: int, frames: int, recipe: str = "snake12-paper") -> dict:
+    """One chunk of the load check, in a worker: its frames, time, checksum and the worker's peak memory.
+
+    Every effect is on, with the recipe's settings (``snake12-elastic``: the elastic chain).
+    """
     t0 = time.perf_counter()
-    res = simulate(load_recipe("snake12-paper"), "planned-paths", effects=list(EFFECT_NAMES), frames=frames, seed=seed)
+    res = simulate(load_recipe(recipe), "planned-paths", effects=list(EFFECT_NAMES), frames=frames, seed=seed)
     rec = res.recording
     checksum = float(np.sum(rec.terminal)) + float(np.sum(rec.actuator))  # the data is made, then dropped
     return {
@@ -59,7 +62,7 @@ def simulate_chunk(seed: int, frames: int) -> dict:
     }
 
 
-def load_check(total: int, chunk: int, jobs: int) -> dict:
+def load_check(total: int, chunk: int, jobs: int, recipe: str = "snake12-paper") -> dict:
     """Simulate ``total`` frames in chunks on ``jobs`` worker processes; frames/s and peak memory per worker."""
     from joblib import Parallel, delayed
 
@@ -67,7 +70,7 @@ def load_check(total: int, chunk: int, jobs: int) -> dict:
     t0 = time.perf_counter()
     rows = list(
         Parallel(n_jobs=jobs, return_as="generator")(
-            delayed(simulate_chunk)(k, min(chunk, total - k * chunk)) for k in range(n_chunks)
+            delayed(simulate_chunk)(k, min(chunk, total - k * chunk), recipe) for k in range(n_chunks)
         )
     )
     wall = time.perf_counter() - t0
@@ -76,6 +79,7 @@ def load_check(total: int, chunk: int, jobs: int) -> dict:
     for r in rows:
         by_worker.setdefault(r["pid"], []).append(r["peak_rss_mib"])
     return {
+        "recipe": recipe,
         "total_frames": frames,
         "chunk": chunk,
         "jobs": jobs,
@@ -99,12 +103,14 @@ def main() -> None:
     ap.add_argument("--total", type=int, default=1_000_000)
     ap.add_argument("--chunk", type=int, default=50_000)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--recipe", default="snake12-paper", help="recipe whose effect settings apply (load check)")
     args = ap.parse_args()
     if args.load_check:
-        out = load_check(args.total, args.chunk, args.jobs)
+        out = load_check(args.total, args.chunk, args.jobs, args.recipe)
         mem = out["peak_rss_mib_per_worker"]
         print(
-            f"load check: {out['total_frames']} frames of N = 12, every effect, chunks of {args.chunk} on "
+            f"load check ({args.recipe}): {out['total_frames']} frames of N = 12, every effect, "
+            f"chunks of {args.chunk} on "
             f"{args.jobs} workers: {out['wall_s']:.1f} s = {out['frames_per_s']:.0f} frames/s "
             f"(one chunk {out['chunk_s_median']:.2f} s); peak memory per worker, first -> last chunk: "
             + ", ".join(f"{v['first']:.0f} -> {v['last']:.0f} MiB ({v['chunks']} chunks)" for v in mem.values())

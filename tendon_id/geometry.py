@@ -9,9 +9,13 @@ Conventions
 * Tendon ``i`` of set ``j`` runs at azimuth ``psi[j-1, i-1]`` on every disk.
 
 The paper's ``Geom(q_k)`` (Eq. (3)) is :func:`backbone_wrap`: one wrap per guide,
-shared by every tendon.  :func:`projected_wrap` is the per-tendon small-angle
-form of :doc:`/guide/geometry`, and :func:`exact_wrap` the forward kinematics of the hole
-points, which the simulator's ``per_tendon_wrap`` effect uses.
+shared by every tendon.  :func:`exact_wrap` is the forward kinematics of the hole points,
+which the simulator's ``per_tendon_wrap`` effect uses, and :func:`projected_wrap` its expansion
+to second order in the bends (:doc:`/guide/geometry`).
+
+``RobotGeometry.alpha_0`` and ``alpha_c`` are the simulator's truth: a user does not know a
+robot's routing wrap or clearance angle, so no model reads them; the capstan models fit both
+(:mod:`tendon_id.zoo.blocks.geometric`).
 """
 
 from __future__ import annotations
@@ -44,6 +48,10 @@ __all__ = [
 ]
 
 
+#: The optional sizes a user measures on the robot [m] (:class:`RobotGeometry`).
+MEASURED = ("hole_diameter", "tendon_diameter", "hole_length")
+
+
 @dataclass(frozen=True)
 class RobotGeometry:
     """Description of a discrete-joint CDHRR with serial pass-through routing.
@@ -65,14 +73,22 @@ class RobotGeometry:
         Radius of the circle of tendon holes on each disk [m]. Default 0.012.
     alpha_0 : float
         Routing wrap present even when the robot is straight [rad]
-        (:doc:`/guide/geometry`). Default 0.05.
+        (:doc:`/guide/geometry`). Default 0.05. The simulator's truth: no model reads
+        it (the capstan models fit it).
     alpha_c : float
         Clearance angle of a hole: below it the tendon does not touch the
         wall [rad]. Default 0.08, above ``alpha_0``, so a nearly straight
-        guide is out of contact.
+        guide is out of contact. The simulator's truth: no model reads it (the
+        contact block fits it).
     azimuth_step : float
         Azimuth offset ``delta`` between consecutive tendon sets [rad]. The
         default ``2 pi / 36`` spreads the 36 holes of 12 sets evenly.
+    hole_diameter, tendon_diameter, hole_length : float, optional
+        Diameter of a guide hole, of the tendon, and the length of the hole's bore (the
+        disk's thickness) [m]: what a user can measure on the robot. Together they give the
+        clearance angle the contact block starts from
+        (:func:`tendon_id.zoo.blocks.geometric.clearance_start`); the simulator does not read
+        them. Default None (unknown).
     """
 
     n_modules: int = 12
@@ -82,23 +98,32 @@ class RobotGeometry:
     alpha_0: float = 0.05
     alpha_c: float = 0.08
     azimuth_step: float = 2.0 * np.pi / 36.0
+    hole_diameter: float | None = None
+    tendon_diameter: float | None = None
+    hole_length: float | None = None
 
     def __post_init__(self) -> None:
-        # A robot often comes from a file's metadata or a --set option: text or null is a user's mistake.
+        # A robot often comes from a file's metadata or a --set option: text or null is a user's mistake
+        # (the measured sizes may be left out: None).
         for f in fields(self):
             v = getattr(self, f.name)
+            if v is None and f.name in MEASURED:
+                continue
             number = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
             if not number or not np.isfinite(v):
                 raise ConfigError(f"robot.{f.name} must be a finite number, got {v!r}")
         if int(self.n_modules) != self.n_modules or self.n_modules < 2:
             raise ConfigError(f"robot.n_modules must be an integer >= 2, got {self.n_modules!r}")
-        for name in ("link_length", "joint_gap", "hole_radius"):
-            if not float(getattr(self, name)) > 0:
-                raise ConfigError(f"robot.{name} must be a positive length in m, got {getattr(self, name)!r}")
+        for name in ("link_length", "joint_gap", "hole_radius") + MEASURED:
+            v = getattr(self, name)
+            if v is not None and not float(v) > 0:
+                raise ConfigError(f"robot.{name} must be a positive length in m, got {v!r}")
         for name in ("alpha_0", "alpha_c"):
             v = float(getattr(self, name))
             if not 0.0 <= v < np.pi / 2:
                 raise ConfigError(f"robot.{name} must be an angle in [0, pi/2) rad, got {v!r}")
+        if None not in (self.hole_diameter, self.tendon_diameter) and not self.hole_diameter > self.tendon_diameter:
+            raise ConfigError(f"robot.hole_diameter must exceed robot.tendon_diameter, got {self.hole_diameter!r}")
 
     @property
     def n_guides(self) -> int:
@@ -106,8 +131,8 @@ class RobotGeometry:
         return self.n_modules - 1
 
     def to_dict(self) -> dict:
-        """Plain-JSON form, as stored in recording metadata."""
-        return {k: float(v) if isinstance(v, float) else v for k, v in asdict(self).items()}
+        """Plain-JSON form, as stored in recording metadata (unknown sizes left out: the recipe hash keeps)."""
+        return {k: float(v) if isinstance(v, float) else v for k, v in asdict(self).items() if v is not None}
 
     @classmethod
     def from_dict(cls, d: dict | None) -> RobotGeometry:
@@ -185,18 +210,45 @@ def sin_q(theta: ArrayLike) -> NDArray[np.float64]:
     return np.concatenate([s[..., :-1, :], s[..., 1:, :]], axis=-1)
 
 
-def projected_wrap(theta: ArrayLike, psi: ArrayLike, alpha_0: float) -> NDArray[np.float64]:
-    """Per-tendon wrap from projected bends (:doc:`/guide/geometry`, small-angle form).
+def projected_wrap(
+    theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None = None, *, alpha_0: float | None = None
+) -> NDArray[np.float64]:
+    """Per-tendon wrap to second order in the bends: :func:`exact_wrap` expanded (:doc:`/guide/geometry`).
 
-    ``alpha_k = |b_k(psi)| / 2 + |b_{k+1}(psi)| / 2 + alpha_0``.
+    For small bends of the Cardan joint (hole radius ``r``, hole planes ``h = joint_gap / 2``
+    from the pivot) the turn out of the lower link is ``|theta| / 2 + d`` and the turn into the
+    upper one ``|theta| / 2 - d``, with ``d = r theta_x theta_y b(psi + pi/2) / (4 h |theta|)``
+    and ``b`` the projected bend (:func:`projected_bend`): to first order every tendon turns by
+    half the bend whatever its azimuth (the backbone wrap), and ``d`` is the Cardan twist
+    ``theta_x theta_y / 2`` moving the upper hole sideways.  The error is ``O(|theta|^3)``.
+
+    Parameters
+    ----------
+    theta : array_like, shape (..., N, 2)
+        Joint angles [rad].
+    geometry : RobotGeometry
+        Hole radius and joint gap.
+    psi : array_like, shape (S, 3), optional
+        Azimuths [rad]; default :func:`tendon_azimuths`.
+    alpha_0 : float, optional
+        Routing wrap [rad]; default ``geometry.alpha_0``, the simulator's truth (a model passes 0).
 
     Returns
     -------
     ndarray, shape (..., N-1, S, 3)
-        Wrap [rad] of guide ``k`` for tendon ``i`` of set ``j``.
+        Wrap [rad] of guide ``k`` for tendon ``i`` of set ``j``, at most pi.
     """
-    b = np.abs(projected_bend(theta, psi))
-    return np.minimum(0.5 * b[..., :-1, :, :] + 0.5 * b[..., 1:, :, :] + alpha_0, np.pi)
+    theta = np.asarray(theta, dtype=float)
+    psi = tendon_azimuths(geometry) if psi is None else np.asarray(psi, dtype=float)
+    tx, ty = theta[..., 0, None, None], theta[..., 1, None, None]
+    mag = np.hypot(tx, ty)
+    scaled = geometry.hole_radius / (2.0 * geometry.joint_gap) * tx * ty * projected_bend(theta, psi + 0.5 * np.pi)
+    d = np.divide(scaled, mag, out=np.zeros(scaled.shape), where=mag > 0)  # the numerator is O(|theta|^3)
+    a0 = geometry.alpha_0 if alpha_0 is None else float(alpha_0)
+    # Guide k: the turn into link k at joint k, and out of it at joint k + 1.
+    into_upper = 0.5 * mag[..., :-1, :, :] - d[..., :-1, :, :]
+    out_of_lower = 0.5 * mag[..., 1:, :, :] + d[..., 1:, :, :]
+    return np.minimum(into_upper + out_of_lower + a0, np.pi)
 
 
 def joint_rotation(theta: ArrayLike) -> NDArray[np.float64]:
@@ -244,6 +296,19 @@ def turn_out_of_lower(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray
     return np.arctan2(np.hypot(sx, sy), sz)
 
 
+def crossing_length(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
+    """Length [m] of a tendon's straight segment across a joint, from hole to hole.
+
+    The segment ``R (u + h e_z) - (u - h e_z)`` of :func:`turn_out_of_lower` (``h`` is half the
+    joint gap); ``2 h`` when straight, and ``2 h - r b(psi)`` to first order in the bend, the
+    change ``dl = -r b`` of :doc:`/guide/geometry`.
+    """
+    sx = R[..., 0, 0] * ux + R[..., 0, 1] * uy + R[..., 0, 2] * h - ux
+    sy = R[..., 1, 0] * ux + R[..., 1, 1] * uy + R[..., 1, 2] * h - uy
+    sz = R[..., 2, 0] * ux + R[..., 2, 1] * uy + R[..., 2, 2] * h + h
+    return np.sqrt(sx * sx + sy * sy + sz * sz)
+
+
 def turn_into_upper(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
     """Turn [rad] at an upper link's bottom hole: the segment seen from the upper link.
 
@@ -257,7 +322,12 @@ def turn_into_upper(R: NDArray, ux: NDArray, uy: NDArray, h: float) -> NDArray:
 
 
 def exact_wrap(
-    theta: ArrayLike, geometry: RobotGeometry, psi: ArrayLike | None = None, *, on_path_only: bool = False
+    theta: ArrayLike,
+    geometry: RobotGeometry,
+    psi: ArrayLike | None = None,
+    *,
+    on_path_only: bool = False,
+    alpha_0: float | None = None,
 ) -> NDArray[np.float64]:
     """Per-tendon wrap from the forward kinematics of the hole points.
 
@@ -280,6 +350,9 @@ def exact_wrap(
     on_path_only : bool
         Compute only where set ``j`` passes guide ``k`` (``k < j``, needs
         ``S = N``) and leave NaN elsewhere: half the work, for the simulator.
+    alpha_0 : float, optional
+        Routing wrap [rad]; default ``geometry.alpha_0`` (the simulator's truth; a model passes 0
+        and adds its fitted routing wrap).
 
     Returns
     -------
@@ -288,6 +361,7 @@ def exact_wrap(
     """
     theta = np.asarray(theta, dtype=float)
     psi = tendon_azimuths(geometry) if psi is None else np.asarray(psi, dtype=float)
+    a0 = geometry.alpha_0 if alpha_0 is None else float(alpha_0)
     rho, h = geometry.hole_radius, 0.5 * geometry.joint_gap
     ux, uy = rho * np.cos(psi), rho * np.sin(psi)  # hole offsets in the disk plane, (S, 3)
     R = joint_rotation(theta)  # (T, N, 3, 3)
@@ -296,7 +370,7 @@ def exact_wrap(
         Rb = R[:, :, None, None]  # broadcast over the (S, 3) tendons
         into_upper, out_of_lower = turn_into_upper(Rb, ux, uy, h), turn_out_of_lower(Rb, ux, uy, h)
         # Guide k = link k: its bottom hole turns at joint k, its top hole at joint k+1.
-        return np.minimum(into_upper[:, :-1] + out_of_lower[:, 1:] + geometry.alpha_0, np.pi)
+        return np.minimum(into_upper[:, :-1] + out_of_lower[:, 1:] + a0, np.pi)
     if psi.shape[0] != n:
         raise ValueError("on_path_only needs one row of azimuths per set (S = N)")
     k, j = np.nonzero(np.arange(1, n)[:, None] < np.arange(1, n + 1)[None, :])  # guide index k-1, set index j-1
@@ -304,7 +378,7 @@ def exact_wrap(
     into_upper = turn_into_upper(R[:, k, None], ux_p, uy_p, h)  # at joint k
     out_of_lower = turn_out_of_lower(R[:, k + 1, None], ux_p, uy_p, h)  # at joint k+1
     wrap = np.full((theta.shape[0], n - 1, n, 3), np.nan)
-    wrap[:, k, j] = np.minimum(into_upper + out_of_lower + geometry.alpha_0, np.pi)
+    wrap[:, k, j] = np.minimum(into_upper + out_of_lower + a0, np.pi)
     return wrap
 
 

@@ -41,16 +41,37 @@ def test_backbone_wrap_golden():
 
 
 @settings(max_examples=100, deadline=None)
-@given(theta=poses)
-def test_projected_wrap_never_exceeds_backbone(theta):
-    psi = tendon_azimuths(GEOM)
-    p = projected_wrap(theta, psi, GEOM.alpha_0)
-    b = backbone_wrap(theta, GEOM.alpha_0)
-    assert p.shape == (3, 4, 5, 3)
-    assert np.all(p <= b[..., None, None] + 1e-12) and np.all(p >= GEOM.alpha_0 - 1e-15)
-    # |b(psi)| = |theta| exactly when the tendon lies in the bending plane.
-    b_proj = projected_bend(theta, np.arctan2(theta[..., 1], theta[..., 0])[0][:, None, None] * np.ones((1, 1, 3)))
-    assert b_proj.shape[-2:] == (1, 3)
+@given(
+    direction=arrays(float, (2, 5, 2), elements=st.floats(-1.0, 1.0)),
+    psi=arrays(float, (5, 3), elements=st.floats(0.0, 2.0 * np.pi)),
+    scale=st.sampled_from([0.01, 0.05, 0.15]),
+)
+def test_projected_wrap_is_the_exact_wrap_to_second_order(direction, psi, scale):
+    # Small bends in every direction, tendons at any azimuth: the expansion's error is third order
+    # in the bends (0.45 sum |theta|^3 at most for this robot's r / h; bounded here at 1), where the
+    # backbone wrap, its first-order part, is off at second order.
+    theta = scale * direction
+    e = exact_wrap(theta, GEOM, psi)
+    p = projected_wrap(theta, GEOM, psi)
+    assert p.shape == e.shape == (2, 4, 5, 3)
+    mag = np.linalg.norm(theta, axis=-1)
+    cubic = (mag[:, :-1] ** 3 + mag[:, 1:] ** 3)[..., None, None]
+    assert np.all(np.abs(p - e) <= cubic + 1e-12)
+    np.testing.assert_allclose(projected_wrap(theta, GEOM, psi, alpha_0=0.0), p - GEOM.alpha_0, atol=1e-15)
+
+
+def test_projected_wrap_is_the_turn_not_the_length_change():
+    # A 10 deg bend of two neighbouring joints, a tendon at psi = 120 deg: the tendon turns by half
+    # of each bend at its holes (12.9 deg with the routing wrap), though its length changes by half
+    # as much as in the bending plane (the projected bend, cos 120 deg = -1/2: 7.9 deg).
+    theta = np.zeros((1, 5, 2))
+    theta[0, 1:3, 0] = np.deg2rad(10.0)
+    psi = np.full((5, 3), np.deg2rad(120.0))
+    p, e = projected_wrap(theta, GEOM, psi)[0, 1, 0, 0], exact_wrap(theta, GEOM, psi)[0, 1, 0, 0]
+    assert np.rad2deg(e) == pytest.approx(10.0 + np.rad2deg(GEOM.alpha_0))
+    assert p == pytest.approx(e, abs=1e-12)  # one Cardan axis: no twist, the expansion is exact
+    b = projected_bend(theta, psi)[0, 1:3, 0, 0]
+    assert np.rad2deg(0.5 * np.abs(b).sum() + GEOM.alpha_0) == pytest.approx(7.86, abs=0.01)
 
 
 @settings(max_examples=60, deadline=None)
@@ -118,7 +139,11 @@ def test_azimuths_and_gate():
 def test_geometry_validation_and_round_trip():
     g = RobotGeometry(n_modules=7, alpha_0=0.02)
     assert RobotGeometry.from_dict(g.to_dict()) == g
-    for bad in ({"n_modules": 1}, {"hole_radius": 0.0}, {"alpha_c": -0.1}, {"alpha_0": 2.0}):
+    assert "hole_diameter" not in g.to_dict()  # unknown sizes stay out of metadata (and the recipe hash)
+    sized = RobotGeometry(hole_diameter=1.3e-3, tendon_diameter=1.0e-3, hole_length=3e-3)
+    assert RobotGeometry.from_dict(sized.to_dict()) == sized
+    bad_sizes = ({"hole_diameter": 0.0}, {"hole_diameter": 1e-3, "tendon_diameter": 1e-3}, {"hole_length": "3 mm"})
+    for bad in ({"n_modules": 1}, {"hole_radius": 0.0}, {"alpha_c": -0.1}, {"alpha_0": 2.0}) + bad_sizes:
         with pytest.raises(ConfigError):
             RobotGeometry(**bad)
     with pytest.raises(ConfigError, match="unknown robot setting"):

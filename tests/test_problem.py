@@ -77,10 +77,14 @@ def test_the_delta_method_weight_is_the_inverse_variance_of_the_log_drop():
 
 def test_calibration_posterior_and_identifiability_see_one_problem(data, built):
     model = make("capstan-contact").fit(data)
-    (cal,) = built
+    # Calibration builds the problem at the blocks' starts, profiles the clearance and the routing wrap
+    # on the tied law's, then solves the law on the problem at the fitted geometry: its last.
+    cal = built[-1]
+    assert cal.values == model.block_params_
+    n_cal = len(built)
     post = sample_posterior(model, data, max_steps=1000, chunk=500, target_ess=1.0, encoder_bits=None, seed=0)
     ident = IdentifiabilityProblem.from_model(model, model.inputs(data), "tied")
-    _, posterior_problem, base_of_ident = built
+    posterior_problem, base_of_ident = built[n_cal:]
     assert base_of_ident is ident and isinstance(ident, LawProblem)
     for other in (posterior_problem, ident):
         np.testing.assert_array_equal(other.guide_design, cal.guide_design)
@@ -127,7 +131,8 @@ def test_fitted_parameters_and_inputs_are_public(data):
     assert model.block_params({"sensor_bias": {"gain": 0.1}})["sensor_bias"] == {**initial, "gain": 0.1}
     model.fit(data)
     assert set(model.block_values_["sensor_bias"]) == {"offset", "gain", "drift"}
-    assert model.block_params_ == {"sensor_bias": model.block_values_["sensor_bias"]}
+    # Every block's parameters are free here, the routing wrap every capstan model fits included.
+    assert model.block_params_ == model.block_values_ and set(model.block_values_) == {"sensor_bias", "routing"}
     inputs = model.inputs(data)
     ref = TransmissionInputs.from_recordings([data], model.geometry_)
     np.testing.assert_array_equal(inputs.angles, ref.angles)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tendon_id.benchmarks.regimes import GRID, SESSIONS, Regime, format_regimes, grid_regimes, regimes
+from tendon_id.benchmarks.regimes import GRID, Regime, format_regimes, grid_regimes, regimes
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 
@@ -13,25 +13,31 @@ def paper():
     return load_recipe("snake12-paper")
 
 
-def test_the_grid_changes_one_setting_at_a_time_in_both_sessions(paper):
-    cells = grid_regimes()
-    per_session = 1 + sum(len(v) - 1 for v in GRID.values())
-    assert len(cells) == per_session * len(SESSIONS) == 16
+@pytest.mark.parametrize("name, count", [("snake12-paper", 18), ("snake12-elastic", 16)])
+def test_the_grid_changes_one_setting_at_a_time_in_both_sessions(name, count):
+    base = load_recipe(name)
+    cells = grid_regimes(base)
+    assert len(cells) == count
     assert len({(c.setting, c.session) for c in cells}) == len(cells)
+    own = base.effects.get("stick_slip")
     for c in cells:
-        r = c.recipe(paper)
+        r = c.recipe(base)
         changed = [k for k in GRID if getattr(c, k) != getattr(Regime(), k)]
         assert len(changed) <= 1
         assert r.session == c.session
-        assert r.effects.get("stick_slip").driver == c.driver
+        assert r.effects.get("stick_slip").driver == (c.driver or own.driver)
+        assert c.driver != own.driver  # the recipe's own driver is the recipe's regime
+        assert r.effects.get("stick_slip").EA == pytest.approx(own.EA * c.ea_scale)
+        assert c.ea_scale == 1.0 or own.driver == "elastic"  # the stiffness acts only on an elastic tendon
         assert r.effects.get("viscoelastic").kappa == pytest.approx(
-            paper.effects.get("viscoelastic").kappa * c.kappa_scale
+            base.effects.get("viscoelastic").kappa * c.kappa_scale
         )
+        assert c.kappa_scale == 1.0 or "viscoelastic" in base.effects
         assert ("per_tendon_wrap" in r.effects) == c.wraps
-        np.testing.assert_allclose(r.friction.A, np.array(paper.friction.A) * c.friction_scale)
-        np.testing.assert_allclose(r.friction.B, np.array(paper.friction.B) * c.friction_scale)
+        np.testing.assert_allclose(r.friction.A, np.array(base.friction.A) * c.friction_scale)
+        np.testing.assert_allclose(r.friction.B, np.array(base.friction.B) * c.friction_scale)
         # everything else is the recipe's
-        assert r.robot == paper.robot and r.sensors == paper.sensors and r.actuation == paper.actuation
+        assert r.robot == base.robot and r.sensors == base.sensors and r.actuation == base.actuation
 
 
 def test_bad_settings_fail_before_any_job(paper):

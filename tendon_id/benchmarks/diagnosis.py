@@ -73,10 +73,12 @@ def run_case(case: Case) -> dict:
     lib = tuple(e for e in case.truth if e not in OUT_OF_LIBRARY)
     if lib:
         truth = case_recipe(case).effects
-        truth_blocks = tuple(oracle_block(e, truth) for e in LIBRARY if e in lib)  # in the simulator's order
+        robot = case_recipe(case).robot
+        truth_blocks = tuple(oracle_block(e, truth, robot) for e in LIBRARY if e in lib)  # in the simulator's order
         structure = base.with_blocks(*truth_blocks)
         family = base.family
-        start = (base.A_, base.B_, structure.block_params())
+        # The base's fitted routing wrap (and clearance) where it has them; the oracle's blocks at the truth.
+        start = (base.A_, base.B_, {**structure.block_params(), **base.block_params_})
         fit = family.refit(structure, base.inputs(train), start, DiagnosisSettings().max_nfev)
         e = family.residual(fit.model, base.inputs(test))
         row["oracle_rmse"] = float(np.sqrt(np.nanmean(e**2)))

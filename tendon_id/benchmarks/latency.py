@@ -49,7 +49,8 @@ def untrained_model(recording, preset: str, seed: int = 0) -> PGCHTC:
     inp = TransmissionInputs.from_recordings(recording)
     cfg = get_preset(preset).unit
     cascade = Cascade(inp.n_modules - 1, cfg)
-    fit_feature_norm(cascade, sin_q(inp.angles), inp.wrap, np.concatenate([inp.actuator.reshape(-1, 3), inp.terminal]))
+    wrap = inp.wrap_at(model.alpha_0_)  # no prior: no routing wrap
+    fit_feature_norm(cascade, sin_q(inp.angles), wrap, np.concatenate([inp.actuator.reshape(-1, 3), inp.terminal]))
     with torch.no_grad():
         for u in cascade.units:
             if u.residual is not None:
@@ -68,11 +69,12 @@ def untrained_ns_model(recording, preset: str, seed: int = 0) -> PGCHTCNS:
     model = PGCHTCNS(preset=preset, seed=seed, progress=False)
     inp = TransmissionInputs.from_recordings(recording)
     cascade = CorrectedCascade(inp.n_modules - 1, model.correction_config())
-    fit_feature_norm(cascade, sin_q(inp.angles), inp.wrap, np.concatenate([inp.actuator.reshape(-1, 3), inp.terminal]))
+    model.prior_model_ = make("capstan-nonsmooth", seed=seed).fit(recording)
+    wrap = inp.wrap_at(model.alpha_0_)  # the prior's fitted routing wrap
+    fit_feature_norm(cascade, sin_q(inp.angles), wrap, np.concatenate([inp.actuator.reshape(-1, 3), inp.terminal]))
     with torch.no_grad():
         for u in cascade.units:
             torch.nn.init.normal_(u.head.weight, std=0.05)
-    model.prior_model_ = make("capstan-nonsmooth", seed=seed).fit(recording)
     model.cascade_ = cascade.eval()
     model.geometry_, model.n_modules_, model.dt_ = inp.geometry, inp.n_modules, inp.dt
     model.guard_, model.history_ = {}, {}
@@ -235,7 +237,7 @@ def latency(
     span = cfg.n_layers * (cfg.window - 1) + 1 if cfg.temporal_residual else 1
     timed = range(min(span, first.n_frames - 1), min(span + naive_frames, first.n_frames))
     with torch.inference_mode():
-        sq, al = sin_q(angles), TransmissionInputs.from_recordings(first, model.geometry_).wrap
+        sq, al = sin_q(angles), TransmissionInputs.from_recordings(first, model.geometry_).wrap_at(model.alpha_0_)
         for t in range(timed.stop):
             s = time.perf_counter()
             out = _naive_step(model.cascade_, history, f32(sq[t]), f32(al[t]), f32(np.log(act[t])))

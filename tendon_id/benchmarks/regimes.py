@@ -7,9 +7,11 @@ held-out trajectories:
 =====================  ==========================================================  ===============
 setting                values                                                      recipe default
 =====================  ==========================================================  ===============
-stick/slip driver      ``tension`` (a change of entering tension), ``motion``       tension
-                       (also the tendon drawn through a guide by the joints beyond)
-viscoelastic kappa     0, half, the recipe's, double                               0.12
+stick/slip driver      ``tension`` (a change of entering tension), ``motion``       the recipe's
+                       (also the tendon drawn through a guide by the joints beyond),
+                       ``elastic`` (both, from an elastic tendon)
+tendon stiffness EA    the recipe's times 0.1 and 10 (elastic driver only)         3.5e4 N
+viscoelastic kappa     0, half, the recipe's, double (where the recipe has the lag)  0.12
 per-tendon wraps       on (exact wraps of each tendon), off (the backbone's)        on
 friction level         the recipe's ``(A_i, B_i)`` times 0.5, 1, 2                  1
 session                ``continuous`` (each log starts in the state the unlogged    continuous
@@ -17,10 +19,10 @@ session                ``continuous`` (each log starts in the state the unlogged
 =====================  ==========================================================  ===============
 
 The grid is the recipe itself and every other value of one setting at a time, each in both
-sessions (16 regimes for ``snake12-paper``).  A regime's data are the paper's Section IV-B
-split (:func:`~tendon_id.benchmarks.splits.paper_split`: the same held-out 800 / 500 / 1260
-test frames), with a smaller training pool of :data:`TRAIN_FRAMES` frames so that the whole
-map trains on 2 cores in under 20 minutes with the ``fast`` preset.
+sessions (18 regimes for ``snake12-paper``, 16 for ``snake12-elastic``, whose truth has no lag).
+A regime's data are the paper's Section IV-B split (:func:`~tendon_id.benchmarks.splits.paper_split`:
+the same held-out 800 / 500 / 1260 test frames), with a smaller training pool of
+:data:`TRAIN_FRAMES` frames so that the whole map trains on 2 cores in under 20 minutes with the ``fast`` preset.
 
 Each regime reports the terminal and intermediate-joint RMSE of ``capstan-nonsmooth``,
 ``pg-chtc`` and ``pg-chtc-ns``, overall (frame-weighted over the three test protocols), their
@@ -65,7 +67,8 @@ TRAIN_FRAMES = 6000
 REGIME_FRAMES = {"terminal-only": 5000, "posterior-3": 2000, "posterior-6": 1000, "planned-paths": 1260}
 #: The settings each regime varies, and their values (kappa and friction as multiples of the recipe's).
 GRID = {
-    "driver": ("tension", "motion"),
+    "driver": ("tension", "motion", "elastic"),
+    "ea_scale": (0.1, 1.0, 10.0),
     "kappa_scale": (0.0, 0.5, 1.0, 2.0),
     "wraps": (True, False),
     "friction_scale": (0.5, 1.0, 2.0),
@@ -79,8 +82,10 @@ class Regime:
 
     Attributes
     ----------
-    driver : {"tension", "motion"}
-        What makes a guide slip (``stick_slip.driver``).
+    driver : {"tension", "motion", "elastic"}, optional
+        What makes a guide slip (``stick_slip.driver``); None: the recipe's.
+    ea_scale : float
+        The tendon's axial stiffness ``EA`` as a multiple of the recipe's [-] (elastic driver).
     kappa_scale : float
         Viscoelastic relaxing fraction as a multiple of the recipe's ``kappa`` [-].
     wraps : bool
@@ -90,7 +95,8 @@ class Regime:
     session : {"continuous", "fresh"}
     """
 
-    driver: str = "tension"
+    driver: str | None = None
+    ea_scale: float = 1.0
     kappa_scale: float = 1.0
     wraps: bool = True
     friction_scale: float = 1.0
@@ -107,6 +113,8 @@ class Regime:
         v = getattr(self, k)
         if k == "driver":
             return f"driver {v}"
+        if k == "ea_scale":
+            return f"EA x{v:g}"
         if k == "wraps":
             return "wraps " + ("on" if v else "off")
         return f"{'kappa' if k == 'kappa_scale' else 'mu'} x{v:g}"
@@ -117,10 +125,12 @@ class Regime:
         enabled = [e for e in eff.enabled if e != "per_tendon_wrap" or self.wraps]
         if self.wraps and "per_tendon_wrap" not in enabled:
             enabled.append("per_tendon_wrap")
-        if self.driver != "tension" and "stick_slip" not in enabled:
+        if self.driver is not None and "stick_slip" not in enabled:
             raise ConfigError(f"recipe {base.name!r} has no stick_slip effect whose driver could change")
         params = {name: asdict(p) for name, p in eff.params.items()}
-        params["stick_slip"]["driver"] = self.driver
+        if self.driver is not None:
+            params["stick_slip"]["driver"] = self.driver
+        params["stick_slip"]["EA"] = float(params["stick_slip"]["EA"]) * self.ea_scale
         params["viscoelastic"]["kappa"] = float(params["viscoelastic"]["kappa"]) * self.kappa_scale
         friction = FrictionLaw(
             A=tuple(a * self.friction_scale for a in base.friction.A),
@@ -140,12 +150,24 @@ class Regime:
         )
 
 
-def grid_regimes() -> list[Regime]:
-    """The recipe, then each other value of one setting at a time; each in both sessions."""
+def grid_regimes(base: str | Recipe = "snake12-paper") -> list[Regime]:
+    """The recipe, then each other value of one setting at a time; each in both sessions.
+
+    Settings that do not act in ``base`` are left out: the stiffness without the elastic
+    driver, the lag's fraction where the recipe has no lag, and the recipe's own driver.
+    """
+    r = load_recipe(base) if isinstance(base, str) else base
+    ss = r.effects.get("stick_slip")
+    axes = dict(GRID)
+    axes["driver"] = tuple(d for d in GRID["driver"] if d != ss.driver)
+    if ss.driver != "elastic":
+        axes.pop("ea_scale")
+    if "viscoelastic" not in r.effects:
+        axes.pop("kappa_scale")
     settings = [Regime()]
-    for k, values in GRID.items():
+    for k, values in axes.items():
         settings += [Regime(**{k: v}) for v in values if v != getattr(Regime(), k)]
-    return [replace(r, session=s) for r in settings for s in SESSIONS]
+    return [replace(reg, session=s) for reg in settings for s in SESSIONS]
 
 
 def nonsmooth_truth_recipe(base: str | Recipe = "snake12-paper") -> Recipe:
@@ -254,7 +276,7 @@ def regimes(
     t0 = time.perf_counter()
     parallel = job_runner(backend, n_jobs)
     load_recipe(recipe)  # an unknown recipe fails before any job starts
-    cells = list(only) if only is not None else grid_regimes()
+    cells = list(only) if only is not None else grid_regimes(recipe)
     threads = None
     if n_jobs != 1:  # share the cores: each job's torch gets its part
         cores = os.cpu_count() or 1

@@ -17,7 +17,7 @@ from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split, score_test
 from tendon_id.datasets import load
 from tendon_id.progress import progress_bar
 from tendon_id.zoo import make
-from tendon_id.zoo.guard import quiet_guard
+from tendon_id.zoo.guard import quiet_guard, worse_kinds
 
 #: Rows of Table I (single passage) and Table II (cascade), in the paper's order.
 TABLE1_METHODS = (
@@ -200,9 +200,12 @@ def format_rows(result: dict) -> str:
             f"{r['method']:{w}s} {r['protocol']:15s} {t['rmse']:9.3f} {sd:6.2f} {t['r2']:7.3f} "
             f"{t['max_error']:8.3f} | {js}"
         )
-    worse = [g for g in result.get("guards", []) if g["worse"]]
-    for g in worse:
-        lines.append(
-            f"guard: {g['method']} (split {g['split']}) was {g['ratio']:.2f}x its prior {g['prior']} on validation"
-        )
+    for g in result.get("guards", []):
+        kinds = worse_kinds(g)
+        if g["worse"] or kinds:
+            where = ", ".join(f"{k} {r:.2f}x" for k, r in kinds.items())
+            lines.append(
+                f"guard: {g['method']} (split {g['split']}) was {g['ratio']:.2f}x its prior {g['prior']} on validation"
+                + (f"; worse on {where}" if where else "")
+            )
     return "\n".join(lines)

@@ -51,13 +51,16 @@ def encoder_covariance(model, inputs, encoder_step: float, *, n_draws: int = 64,
     group of :func:`encoder_runs`; ``encoder_step`` is the encoder's quantum [rad].
     """
     surrogate = model.smooth_part()
+    values = model.block_params_  # the fitted routing wrap and clearance, held
     runs = encoder_runs(inputs.angles)
     n_runs = int(runs.max()) + 1
     rng = np.random.default_rng(seed)
     fits = []
     for _ in range(n_draws):
         offset = rng.uniform(-0.5, 0.5, size=n_runs) * encoder_step
-        shifted = LawProblem.from_model(surrogate, dataclasses.replace(inputs, angles=inputs.angles + offset[runs]))
+        shifted = LawProblem.from_model(
+            surrogate, dataclasses.replace(inputs, angles=inputs.angles + offset[runs]), values=values
+        )
         fits.append(
             [constrained_lstsq(shifted.design, shifted.log_drop[:, i], shifted.layout, 1e-10).x for i in range(3)]
         )

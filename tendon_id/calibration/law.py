@@ -9,10 +9,13 @@ labels, ``sum_t sum_i (ln T_hat[N, N, i] - ln T[N, N, i])^2``, under
 
 * Smooth models: ``ln T_N`` is linear in ``(A, B)`` (the problem's
   :attr:`~tendon_id.calibration.problem.LawProblem.design`), so the objective is a quadratic built
-  once from ``X^T X``; nlopt's SLSQP gets its exact gradient.
+  once from ``X^T X``; nlopt's SLSQP gets its exact gradient.  The robot's geometry (the
+  routing wrap, the clearance), which a smooth model fits too, is profiled out first
+  (:mod:`tendon_id.calibration.law_geometry`).
 * Nonsmooth models (hysteresis, lags, free block parameters): COBYLA, started
   from the best point of a coarse constant-mu scan, from the smooth solution and
-  from random feasible points (multi-start).
+  from random feasible points (multi-start); the geometry jointly with the law and the
+  other block parameters, from its profile on the model's smooth part.
 
 A caveat of the nonsmooth fit: the model's play operator is driven by the
 *measured* actuator tension, and a play operator ratchets on input noise (each
@@ -33,9 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.calibration.law_geometry import forward_slip, law_fits, profile_geometry
 from tendon_id.calibration.law_layout import MU_MAX, R_MIN, LawLayout
 from tendon_id.calibration.optimize import CTOL, Outcome, minimize
-from tendon_id.calibration.problem import LawProblem, constrained_lstsq
+from tendon_id.calibration.problem import LawProblem
 from tendon_id.errors import ConfigError, TendonIdError
 
 # Re-exported: calibration's documented API before the problem object had modules of its own.
@@ -205,7 +209,6 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     names = [(b, q) for b, q, _, _ in free]
     blo = np.array([bd[0] for _, _, bd, _ in free])
     bhi = np.array([bd[1] for _, _, bd, _ in free])
-    b0 = np.array([v for *_, v in free])
     zlb, zub = layout.free_bounds()
     log_label = np.log(inputs.terminal)
 
@@ -222,11 +225,25 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
         pred = problem.terminal_reading(A, B, vals)
         return float(np.sum((np.log(pred[keep]) - log_label[keep]) ** 2))
 
-    # Stage 1: the law alone, with every block held at its initial (neutral) values, by the
-    # cheaper per-tendon route.  The joint fit then starts from that base fit.
+    # Stage 0: where the geometry (routing wrap, clearance) may start: where the blocks start (what
+    # the user gave), the profile of the smooth part, and with stick/slip its profile on the frames
+    # in forward slip.  Stage 1: the law alone at each, every block held (the other blocks at their
+    # initial, neutral, values), by the cheaper per-tendon route.  The joint fit starts from the
+    # best of these base fits.
     base = model.with_blocks()
     base.blocks = tuple(dataclasses.replace(b, fixed=True) for b in base.block_objects)
-    base_fit = calibrate(LawProblem.from_model(base, inputs))
+    starts, geo_evals = [problem.values], 0
+    stick_slip = any(b.stage == "propagate" for b in model.block_objects)
+    for surrogate in (problem, forward_slip(problem) if stick_slip else None):
+        if surrogate is not None and model.geometric_parameters():
+            values, evals = profile_geometry(surrogate)
+            starts.append(values)
+            geo_evals += evals
+    fits = [calibrate(LawProblem.from_model(base, inputs, values=v)) for v in starts]
+    k = min(range(len(fits)), key=lambda i: fits[i].loss)  # the first of equal losses: the user's start
+    start_values, base_fit = starts[k], fits[k]
+    geo_evals += sum(f.n_eval for f in fits) - base_fit.n_eval
+    b0 = np.array([start_values[b][q] for b, q in names])
     theta = np.stack([layout.join(base_fit.A[:, i], base_fit.B[:, i]) for i in range(3)], axis=1)
     starts = int(model.n_starts)
 
@@ -239,6 +256,10 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     # The smooth law with the blocks at their initial (usually neutral) values comes first:
     # the augmented model then starts from the base model's fit and can only improve on it.
     z_starts = [np.r_[free0(theta), b0], scan_start]
+    if len(free) == len(model.geometric_parameters()):
+        # Only the geometry is free: the base fits above explored the law from every start of their
+        # own, at every candidate geometry, so the joint fit only polishes the best of them.
+        z_starts, starts = z_starts[:1], 1
     while len(z_starts) < starts:
         around = [layout.from_free(scan_start[i * p : (i + 1) * p]) for i in range(3)]
         law = np.stack([layout.random_feasible(rng, around[i]) for i in range(3)], axis=1)
@@ -258,7 +279,7 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     best = min(outs, key=lambda o: o.f)
     A, B, vals = unpack(best.x)
     theta = np.stack([layout.join(A[:, i], B[:, i]) for i in range(3)], axis=1)
-    return theta, vals, best.status, base_fit.n_eval + sum(o.n_eval for o in outs), best.f
+    return theta, vals, best.status, geo_evals + base_fit.n_eval + sum(o.n_eval for o in outs), best.f
 
 
 def calibrate(problem: LawProblem) -> CalibrationResult:
@@ -279,13 +300,16 @@ def calibrate(problem: LawProblem) -> CalibrationResult:
     model, layout, keep = problem.model, problem.layout, problem.keep
     if not keep.any():
         raise ConfigError(f"warmup_s={model.warmup_s} leaves no frame to calibrate on")
-    X, Y = problem.design, problem.log_drop
-    smooth = [constrained_lstsq(X[keep], Y[keep, i], layout, 1e-10) for i in range(3)]
+    free = model.free_parameters()
+    n_eval = 0
+    if model.is_smooth and free:  # only geometric parameters are free: profile them, the law is exact at them
+        values, n_eval = profile_geometry(problem)
+        problem = problem.with_values(values)
+    smooth = law_fits(problem)
     status = [o.status for o in smooth]
-    n_eval = sum(o.n_eval for o in smooth)
+    n_eval += sum(o.n_eval for o in smooth)
     theta = np.stack([o.x for o in smooth], axis=1)  # (p, 3)
     n_obs = int(keep.sum()) * 3
-    free = model.free_parameters()
     values = problem.values
     rng = np.random.default_rng(model.seed)
 

@@ -71,6 +71,7 @@ def minimize(
     xtol_rel: float = 1e-8,
     ftol_rel: float = 1e-14,
     maxeval: int = 1000,
+    initial_step: NDArray | None = None,
 ) -> Outcome:
     """Minimise ``fun`` under ``lb <= x <= ub`` and ``ineq(x) <= 0`` with nlopt.
 
@@ -98,6 +99,9 @@ def minimize(
         Maps a slightly infeasible point onto the feasible set.
     xtol_rel, ftol_rel, maxeval :
         Stopping rules.
+    initial_step : ndarray, optional
+        COBYLA's first step per parameter (its trust region only shrinks from there); default a
+        tenth of each parameter's size, at least a thousandth of its bounds' width.
 
     Returns
     -------
@@ -152,7 +156,9 @@ def minimize(
                 g[:] = E
 
         opt.add_equality_mconstraint(equalities, [CTOL] * len(e))
-    if grad is None:
+    if grad is None and initial_step is not None:
+        opt.set_initial_step(np.asarray(initial_step, dtype=float))
+    elif grad is None:
         # COBYLA's first simplex: a tenth of each parameter's size, not of its (wide) bounds.
         opt.set_initial_step(np.maximum(0.1 * np.abs(np.asarray(x0, dtype=float)), 1e-3 * (ub - lb)))
     opt.set_xtol_rel(xtol_rel)

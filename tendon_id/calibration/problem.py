@@ -16,7 +16,10 @@ affine-cosine law (paper Eqs. (4)–(6)):
 
     ln T[1, N, i] - ln T[N, N, i] = sum_{k < N} m_k alpha_k (A_{k,i} cos alpha_k + B_{k,i}),
 
-with ``m_k`` the exponent factor of the blocks (the contact gate, else 1).  The per-guide
+with ``m_k`` the exponent factor of the blocks (the contact gate, else 1) and ``alpha_k`` the
+backbone wrap with the model's routing wrap, both at the problem's block parameters
+(:attr:`LawProblem.values`: the clearance and the routing wrap are fitted, and held fixed
+here, :mod:`tendon_id.calibration.law_geometry`).  The per-guide
 regressors ``[m alpha cos alpha, m alpha]`` (:attr:`LawProblem.guide_design`) are the whole
 story: tying the law across guides sums them, and the sensitivity of ``-ln T[j, j]`` to
 guide ``k``'s law is that pair for ``k < j`` and zero beyond.
@@ -95,6 +98,18 @@ def constrained_lstsq(
     )
 
 
+def guide_design(model, inputs, values: dict) -> NDArray[np.float64]:
+    """``[m alpha cos alpha, m alpha]`` per frame and guide, shape (T, K, 2) [rad] (:attr:`LawProblem.guide_design`).
+
+    ``alpha`` is the backbone wrap with the model's routing wrap (its block parameters in
+    ``values``, never the robot's metadata) and ``m`` its exponent blocks' factor (the contact
+    gate, else 1).
+    """
+    m = model.exponent_multiplier(inputs, values)[..., 0]  # (T, K)
+    wrap = model.backbone(inputs, values)
+    return np.stack([m * wrap * np.cos(wrap), m * wrap], axis=-1)
+
+
 @dataclass(frozen=True)
 class LawProblem:
     """Terminal-only data seen through a capstan model's structure, for one tying.
@@ -152,13 +167,13 @@ class LawProblem:
         noise_n : float
             Nominal load-cell noise [N].
         values : dict, optional
-            Block parameters (default: the blocks' initial values, ``model.block_params()``;
-            pass ``model.block_params_`` for a fitted model's).
+            Block parameters, the routing wrap and the clearance included (default: a fitted
+            model's, ``model.block_params_``, else the blocks' initial values,
+            ``model.block_params()``).
         """
-        values = model.block_params() if values is None else values
-        m = model.exponent_multiplier(inputs, values)[..., 0]  # (T, K): the contact gate, else 1
-        wrap = inputs.wrap
-        design = np.stack([m * wrap * np.cos(wrap), m * wrap], axis=-1)
+        if values is None:
+            values = model.block_params_ if model.is_fitted else model.block_params()
+        design = guide_design(model, inputs, values)
         drop = np.log(inputs.actuator[:, -1]) - np.log(inputs.terminal)
         weight = delta_method_weight(inputs.actuator[:, -1], inputs.terminal)
         keep = inputs.since_start >= float(model.warmup_s)  # frames that count (see CapstanModel.warmup_s)
@@ -274,6 +289,10 @@ class LawProblem:
         return self.design.T @ (w[:, None] * self.design), self.design.T @ (w * y), float(np.sum(w * y**2))
 
     # ---- forward model -------------------------------------------------------------------
+    def with_values(self, values: dict) -> LawProblem:
+        """The same problem at other block parameters (a fitted clearance or routing wrap), built anew."""
+        return type(self).from_model(self.model, self.inputs, self.tying, self.noise_n, values=values)
+
     def terminal_reading(self, A: NDArray, B: NDArray, values: dict | None = None, **kwargs) -> NDArray:
         """The model's predicted terminal reading [N] for law ``(A, B)`` (see ``CapstanModel.terminal_reading``)."""
         return self.model.terminal_reading(self.inputs, A, B, self.values if values is None else values, **kwargs)

@@ -214,8 +214,10 @@ def analyse(
 
     next(it, None)
     per = studies["per-guide"]
-    gate = per.problem.guide_design[..., 1] / np.maximum(inputs.wrap, 1e-12)
-    cover = excitation(inputs.wrap, gate if base.block_objects else None)
+    wrap = base.backbone(inputs, base.block_params_)  # with the fitted routing wrap
+    # In contact where the gate leaves any of the wrap to friction (the dead zone scales it, the hard gate cuts it).
+    gate = (per.problem.guide_design[..., 1] > 0).astype(float)
+    cover = excitation(wrap, gate if base.alpha_c_ is not None else None)
     scores = instrument_scores(per.problem, per.theta, per.sigma, frames)
     best = max(scores, key=lambda s: s["log_det"])["joint"]
     excite = excite_joints(per.mu0_sd())

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from tendon_id.report.html import HtmlPage, pyplot
+from tendon_id.zoo.guard import worse_kinds
 
 #: The learned models of the map, in column order (the physics baseline is the denominator).
 LEARNED = ("pg-chtc", "pg-chtc-ns")
@@ -114,7 +115,7 @@ def write_regimes_page(result: dict, path: str | os.PathLike) -> Path:
         f"{c['setting']}, {c['session']}: {k} ({g['cascade_rmse']:.3g} N against {g['prior_rmse']:.3g} N)"
         for c in result["cells"]
         for k, m in c["methods"].items()
-        if (g := m.get("guard")) and g.get("worse")
+        if (g := m.get("guard")) and (g.get("worse") or worse_kinds(g))
     ]
     if guards:
         n_cells = len(result["cells"]) * len(LEARNED)

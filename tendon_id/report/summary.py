@@ -7,19 +7,22 @@ from collections.abc import Sequence
 import numpy as np
 
 from tendon_id.data import Recording
-from tendon_id.geometry import RobotGeometry, backbone_wrap
+from tendon_id.geometry import backbone_wrap
 from tendon_id.report.html import HtmlPage, pyplot
 
 
 def wrap_coverage_figure(recordings: Sequence[Recording]):
-    """Box plot of the backbone wrap [deg] each guide saw, one colour per protocol."""
+    """Box plot of the wrap [deg] the joints gave each guide, one colour per protocol.
+
+    Paper Eq. (3) without the routing wrap: what the joint angles show, on real data and
+    simulated alike (a model fits the routing wrap; the metadata's is the simulator's truth).
+    """
     plt = pyplot()
     n = recordings[0].n_modules
     fig, ax = plt.subplots(figsize=(9, 3.4), layout="constrained")
     width = 0.8 / len(recordings)
     for r_i, rec in enumerate(recordings):
-        alpha0 = (rec.meta.get("robot") or {}).get("alpha_0", RobotGeometry().alpha_0)
-        wrap = np.rad2deg(backbone_wrap(rec.angles, alpha0))
+        wrap = np.rad2deg(backbone_wrap(rec.angles, 0.0))
         pos = np.arange(1, n) + (r_i - (len(recordings) - 1) / 2) * width
         bp = ax.boxplot(wrap, positions=pos, widths=width * 0.9, showfliers=False, patch_artist=True)
         color = plt.cm.tab10(r_i)
@@ -30,7 +33,7 @@ def wrap_coverage_figure(recordings: Sequence[Recording]):
     ax.set_xticks(np.arange(1, n), labels=[str(k) for k in range(1, n)])
     ax.set_xlim(0.4, n - 0.4)
     ax.set_xlabel("guide k")
-    ax.set_ylabel("backbone wrap alpha_k [deg]")
+    ax.set_ylabel("bend wrap (|theta_k| + |theta_k+1|) / 2 [deg]")
     ax.legend(fontsize=8, ncol=min(len(recordings), 4))
     ax.grid(alpha=0.3)
     return fig

@@ -21,11 +21,15 @@ EFFECT_WORDS = {
     "guide_wear": "worn guides",
     "per_tendon_wrap": "per-tendon wraps",
     "sensor_bias": "load-cell bias",
+    "actuator_cells": "actuator load-cell gain and offset errors",
+    "clock_skew": "clock skew between the sensor streams",
+    "load_cell_dynamics": "load-cell lag",
+    "friction_drift": "friction that runs in and wears",
 }
 
 
-#: Effects whose state (hysteresis, lag) a trajectory inherits from the motion before it.
-STATEFUL = frozenset({"stick_slip", "viscoelastic"})
+#: Effects whose state (hysteresis, lag, the guides' wear) a trajectory inherits from the motion before it.
+STATEFUL = frozenset({"stick_slip", "viscoelastic", "friction_drift"})
 
 
 def effect_words(names) -> str:

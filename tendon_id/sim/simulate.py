@@ -14,6 +14,7 @@ from tendon_id.sim.effects import Effects, parse_effect_names
 from tendon_id.sim.motion import PathBuilder
 from tendon_id.sim.protocols import PROTOCOL_NAMES, PROTOCOLS, MotionContext, held_joint_count, held_pose
 from tendon_id.sim.recipe import Recipe
+from tendon_id.sim.sensor_chain import SENSOR_CHAIN_EFFECTS, sensor_signals
 from tendon_id.sim.sensors import apply_sensor_bias
 from tendon_id.sim.transmission import transmit
 
@@ -193,16 +194,20 @@ def simulate(
     session_act = np.concatenate(pieces_act)
     logged = np.concatenate(logged)
     reset = np.concatenate(reset_parts)
-    tx = transmit(session_theta, session_act, reset, geometry, recipe.friction, eff, dt, keep=logged)
+    physics = eff.with_enabled(e for e in eff.enabled if e not in SENSOR_CHAIN_EFFECTS)  # sensors act after
+    tx = transmit(session_theta, session_act, reset, geometry, recipe.friction, physics, dt, keep=logged)
     chain, sigma, wrap = tx.chain, tx.sigma, tx.wrap
     theta_true, actuator_true = session_theta[logged], session_act[logged]
     session_clock = (np.arange(len(logged)) * dt)[logged]
 
-    # Measurement: encoders and load cells.
+    # Measurement: the sensors as built (lag, clock skew, cell errors), then encoders and load cells.
+    starts = np.zeros(len(theta_true), dtype=bool)
+    starts[np.cumsum([0, *lengths[:-1]])] = True
+    signals = sensor_signals(theta_true, actuator_true, chain[:, n - 1, n - 1, :], starts, eff, dt, seed)
     nrng = _rng(seed, protocol, 0, _STREAM_NOISE)
-    angles = recipe.sensors.read_angles(theta_true)
-    actuator = recipe.sensors.read_tensions(nrng, actuator_true)
-    terminal_true = chain[:, n - 1, n - 1, :]
+    angles = recipe.sensors.read_angles(signals.theta)
+    actuator = recipe.sensors.read_tensions(nrng, signals.actuator)
+    terminal_true = signals.terminal
     t_local = np.concatenate([np.arange(m) * dt for m in lengths])
     if "sensor_bias" in eff:
         terminal_true = apply_sensor_bias(terminal_true, session_clock, eff.get("sensor_bias"))
@@ -230,6 +235,8 @@ def simulate(
         },
         "seed": seed,
     }
+    if signals.truth:  # drawn sensor parameters (the settings are in effect_params)
+        meta["sensor_truth"] = signals.truth
     trajectory = np.repeat(np.array(ids, dtype=object), lengths)
     rec = Recording.from_arrays(
         trajectory=trajectory,

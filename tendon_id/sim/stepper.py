@@ -14,7 +14,10 @@ exponent with ``transmit`` (:class:`~tendon_id.sim.transmission.GuideWraps`,
   which is rate-independent, so stepping it finer than the log's 10 Hz changes nothing on a
   monotone input, and
 * the viscoelastic element's relaxing part ``z`` (:func:`friction_models.viscoelastic_lag`),
-  stepped exactly at the stepper's own period ``dt``.
+  stepped exactly at the stepper's own period ``dt``;
+
+or, with ``stick_slip.driver = "elastic"``, every tendon's segment tensions and path lengths
+(:class:`tendon_id.sim.elastic.ElasticState`, the compiled pass's solver one instant at a time).
 
 A test checks that the stepper and ``transmit`` agree on the same block to rounding.
 """
@@ -24,18 +27,29 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from friction_models import bending_loss, edges_with_loss, slip_state
+from friction_models import bending_loss, edges_with_loss, run_in_wear_factor, slip_state
 from tendon_id.errors import ConfigError
-from tendon_id.geometry import RobotGeometry
+from tendon_id.geometry import RobotGeometry, sliding_speed_at, tendon_azimuths
 from tendon_id.sim.effects import Effects
+from tendon_id.sim.sensor_chain import SENSOR_CHAIN_EFFECTS
 from tendon_id.sim.transmission import FrictionLaw, GuideWraps, guide_exponent, guide_mu, wear_factors
 
-__all__ = ["STEPPED_EFFECTS", "TransmissionStepper"]
+__all__ = ["SENSOR_EFFECTS", "STEPPED_EFFECTS", "TransmissionStepper"]
 
 #: Effects the stepper runs.  The others need a motion history (velocity_friction, the motion
-#: driver of stick_slip) or an element population (the smooth edge) that is not stepped yet;
-#: sensor_bias is a terminal load cell's, which a controller does not read.
-STEPPED_EFFECTS = ("contact", "stick_slip", "viscoelastic", "per_tendon_wrap", "guide_wear", "bending_stiffness")
+#: driver of stick_slip) or an element population (the smooth edge) that is not stepped yet.
+STEPPED_EFFECTS = (
+    "contact",
+    "stick_slip",
+    "viscoelastic",
+    "per_tendon_wrap",
+    "guide_wear",
+    "bending_stiffness",
+    "friction_drift",
+)
+#: Effects of the load cells and clocks, not of the plant: the stepper accepts them and they change
+#: nothing here (the closed loop's controller reads the plant's true tensions).
+SENSOR_EFFECTS = ("sensor_bias", *SENSOR_CHAIN_EFFECTS)
 
 
 class TransmissionStepper:
@@ -55,26 +69,28 @@ class TransmissionStepper:
     """
 
     def __init__(self, geometry: RobotGeometry, friction: FrictionLaw, effects: Effects, dt: float, batch: int):
-        unsupported = [e for e in effects.enabled if e not in (*STEPPED_EFFECTS, "sensor_bias")]
+        unsupported = [e for e in effects.enabled if e not in (*STEPPED_EFFECTS, *SENSOR_EFFECTS)]
         if unsupported:
             raise ConfigError(
                 f"the closed loop cannot step the effect(s) {', '.join(unsupported)} yet; "
                 f"it steps {', '.join(STEPPED_EFFECTS)} (switch the others off in the recipe)"
             )
         ss = effects.get("stick_slip") if "stick_slip" in effects else None
-        if ss is not None and (ss.driver != "tension" or ss.smooth_width > 0):
+        if ss is not None and (ss.driver == "motion" or ss.smooth_width > 0):
             raise ConfigError(
-                "the closed loop steps the sharp, tension-driven play operator only "
-                "(stick_slip.driver = 'tension', smooth_width = 0)"
+                "the closed loop steps the sharp play operator driven by tension, or the elastic chain "
+                "(stick_slip.driver = 'tension' or 'elastic', smooth_width = 0)"
             )
         if dt <= 0:
             raise ConfigError(f"the stepper's dt must be positive, got {dt} s")
         self.geometry, self.friction, self.effects = geometry, friction, effects
         self.dt, self.batch = float(dt), int(batch)
         self.stick_slip = ss is not None
+        self.elastic = ss is not None and ss.driver == "elastic"
         self.visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
         self.bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
         self.wear = wear_factors(geometry, effects)
+        self.drift = effects.get("friction_drift") if "friction_drift" in effects else None
         self.a_visco = np.exp(-self.dt / self.visco.tau_v) if self.visco is not None else 0.0
         self.reset()
 
@@ -87,6 +103,12 @@ class TransmissionStepper:
         # set j passes guides 1..j-1: guide index g carries set indices g+1.. (docs/guide/problem.rst)
         self._on_path = (np.arange(n)[None, :] > np.arange(n - 1)[:, None]).astype(np.int8)[None, :, :, None]
         self.started = False
+        self.slid = np.zeros((self.batch, n - 1))  # friction_drift: distance slid through each guide [m]
+        self.theta_prev = None
+        if self.elastic:  # the tendons' own state: segment tensions, path lengths, viscoelastic branches
+            from tendon_id.sim.elastic import ElasticState  # it imports the compiled pass
+
+            self.chain_state = ElasticState(self.geometry, self.effects, self.dt, self.batch)
 
     def step(self, theta: NDArray, actuator: NDArray) -> tuple[NDArray, NDArray]:
         """Advance one instant.
@@ -110,9 +132,26 @@ class TransmissionStepper:
             raise ConfigError(f"step needs theta ({self.batch}, {n}, 2) and actuator ({self.batch}, {n}, 3)")
         alpha = GuideWraps(theta, self.geometry, self.effects).every()  # (B, N-1, N, 3) or broadcastable
         wear = None if self.wear is None else self.wear[:, None, None]
+        if self.drift is not None:  # tendon_id.sim.drift, one step at a time: the batch is the time axis there
+            if self.theta_prev is not None:
+                rate = (np.cumsum(theta, axis=1) - np.cumsum(self.theta_prev, axis=1)) / self.dt
+                psi = tendon_azimuths(self.geometry)
+                for g in range(n - 1):
+                    speed = sliding_speed_at(rate, g, psi, self.geometry.hole_radius)
+                    self.slid[:, g] += speed.mean(axis=(1, 2)) * self.dt
+            d = self.drift
+            w = run_in_wear_factor(self.slid + d.prior_sliding_m, d.run_in_drop, d.run_in_length_m, d.wear_rate_per_m)
+            wear = w[:, :, None, None] * (1.0 if wear is None else wear[None])
+        self.theta_prev = np.array(theta, dtype=float)
         phi = guide_exponent(guide_mu(self.friction, alpha, "a guide"), alpha, self.geometry, self.effects, wear)
         phi = np.broadcast_to(phi, (self.batch, n - 1, n, 3))
         loss = bending_loss(np.broadcast_to(alpha, phi.shape), self.bend) if self.bend > 0 else None
+        if self.elastic:
+            seg = self.chain_state.step(theta, actuator, phi, None if loss is None else loss)
+            self.started = True
+            joint = actuator.copy()
+            joint[:, 1:] = seg[:, np.arange(n - 1), np.arange(1, n)]
+            return joint, (self._on_path * self.chain_state.sigma).astype(np.int8)
         log_t = np.log(actuator)
         for g in range(n - 1):  # guide g + 1 feeds guide g + 2: the one sequential axis
             on = slice(g + 1, n)

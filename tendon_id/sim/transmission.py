@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from friction_models import (
     affine_cosine_mu,
     bending_loss,
+    dead_zone_wrap,
     edges_with_loss,
     guide_wear_factors,
     hard_contact_gate,
@@ -38,7 +39,7 @@ from tendon_id.geometry import (
     backward_rate,
     joint_rotation,
     path_rate_at,
-    projected_bend,
+    projected_wrap,
     sliding_speed,
     sliding_speed_at,
     tendon_azimuths,
@@ -46,7 +47,10 @@ from tendon_id.geometry import (
     turn_out_of_lower,
 )
 from tendon_id.sim import transmission_kernel as kernel
+from tendon_id.sim.drift import drift_factors
 from tendon_id.sim.effects import Effects
+from tendon_id.sim.elastic import transmit_elastic
+from tendon_id.sim.sensor_chain import SENSOR_CHAIN_EFFECTS
 
 __all__ = [
     "FrictionLaw",
@@ -71,6 +75,7 @@ COMPILED_EFFECTS = (
     "guide_wear",
     "per_tendon_wrap",
     "sensor_bias",  # a load cell's, applied after the transmission
+    "friction_drift",  # per-frame wear factors, fed in as guide_wear's
 )
 
 
@@ -150,8 +155,8 @@ class GuideWraps:
     """Wrap [rad] of every guide over a block of frames, by the recipe's wrap model (:doc:`/guide/geometry`).
 
     Without ``per_tendon_wrap`` it is the backbone wrap of paper Eq. (3), shared by every set and
-    tendon; with it, the exact turns of the hole points (``model = "exact"``) or the projected
-    small-angle form (``"projected"``).  Shared by :func:`transmit` and the closed loop's stepper,
+    tendon; with it, the exact turns of the hole points (``model = "exact"``) or their expansion
+    to second order in the bends (``"projected"``).  Shared by :func:`transmit` and the closed loop's stepper,
     so both run the same geometry.
 
     Parameters
@@ -171,7 +176,7 @@ class GuideWraps:
             self.R = joint_rotation(theta)
             self.ux, self.uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
         elif self.model == "projected":
-            self.bend_abs = np.abs(projected_bend(theta, psi))  # (T, N joints, N sets, 3)
+            self.projected = projected_wrap(theta, geometry, psi)  # (T, N-1 guides, N sets, 3), alpha_0 included
 
     def at(self, g: int) -> NDArray:
         """Wrap of guide ``g + 1`` for sets ``g + 2 .. N``, broadcastable to (T, sets, 3) [rad]."""
@@ -194,9 +199,7 @@ class GuideWraps:
             alpha = turn_into_upper(lower, ux, uy, h) + turn_out_of_lower(upper, ux, uy, h)
             return np.minimum(alpha + geo.alpha_0, np.pi)
         if self.model == "projected":
-            b = self.bend_abs
-            upper = slice(guides.start + 1, guides.stop + 1)
-            return np.minimum(0.5 * b[:, guides, on] + 0.5 * b[:, upper, on] + geo.alpha_0, np.pi)
+            return self.projected[:, guides, on]
         return self.wrap[:, guides, None, None]
 
 
@@ -223,11 +226,19 @@ def _negative_law(alpha: float, where: str) -> ConfigError:
 
 
 def guide_exponent(mu: NDArray, alpha: NDArray, geometry: RobotGeometry, effects: Effects, wear=None) -> NDArray:
-    """Capstan exponent ``phi = w_k mu beta alpha`` (paper Eqs. (5)-(6), :doc:`/guide/simulator`).
+    """Capstan exponent ``phi = w_k mu alpha_eff`` (paper Eqs. (5)-(6), :doc:`/guide/simulator`).
 
-    ``wear`` is the guide's wear factor ``w_k`` (or factors broadcastable to ``mu``); None for 1.
+    With ``contact``, ``alpha_eff`` is the clearance's dead zone ``max(alpha - alpha_c, 0)``
+    (default) or the paper's gate ``beta alpha``; without it, ``alpha``.  ``wear`` is the
+    guide's wear factor ``w_k`` (or factors broadcastable to ``mu``); None for 1.
     """
-    ph = mu * (alpha * hard_contact_gate(alpha, geometry.alpha_c) if "contact" in effects else alpha)
+    if "contact" not in effects:
+        a_eff = alpha
+    elif effects.get("contact").gate == "dead_zone":
+        a_eff = dead_zone_wrap(alpha, geometry.alpha_c)
+    else:
+        a_eff = alpha * hard_contact_gate(alpha, geometry.alpha_c)
+    ph = mu * a_eff
     return ph if wear is None else ph * wear
 
 
@@ -279,21 +290,31 @@ def transmit(
             "the compiled transmission needs numba and runs the sharp edge of stick_slip only; "
             f"effects on: {', '.join(effects.enabled) or 'none'}"
         )
+    wear = wear_factors(geometry, effects)
+    if "friction_drift" in effects:  # run-in and wear over the session's sliding, per frame and guide
+        drift = drift_factors(theta, reset, geometry, effects.get("friction_drift"), dt)
+        wear = drift if wear is None else drift * wear[None, :]
     if can if compiled is None else compiled:
-        return _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, keep, with_phi)
-    res = _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt)
+        return _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, keep, with_phi, wear)
+    if "stick_slip" in effects and effects.get("stick_slip").driver == "elastic":
+        res = _transmit_elastic(theta, actuator, reset, geometry, friction, effects, dt, wear)
+    else:
+        res = _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt, wear)
     kept = slice(None) if keep is None else np.asarray(keep, dtype=bool)
     phi = res.phi[kept] if with_phi else None
     return TransmissionResult(chain=res.chain[kept], sigma=res.sigma[kept], wrap=res.wrap[kept], phi=phi)
 
 
 def _compilable(effects: Effects) -> bool:
-    if any(e not in COMPILED_EFFECTS for e in effects.enabled):
+    # The load cells' and clocks' effects act on the readings (tendon_id.sim.sensor_chain), not here.
+    if any(e not in COMPILED_EFFECTS and e not in SENSOR_CHAIN_EFFECTS for e in effects.enabled):
         return False
     return "stick_slip" not in effects or effects.get("stick_slip").smooth_width == 0
 
 
-def _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, keep, with_phi) -> TransmissionResult:
+def _transmit_compiled(
+    theta, actuator, reset, geometry, friction, effects, dt, keep, with_phi, wear
+) -> TransmissionResult:
     """:func:`transmit` by the compiled pass, its error raised as the blocks raise it."""
     exact = "per_tendon_wrap" in effects and effects.get("per_tendon_wrap").model == "exact"
     wraps = None if exact else GuideWraps(theta, geometry, effects)  # the pass turns the exact wraps itself
@@ -308,7 +329,7 @@ def _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, 
         keep=keep,
         with_phi=with_phi,
         wraps=None if wraps is None else wraps.every(),
-        wear=wear_factors(geometry, effects),
+        wear=wear,
     )
     bad = np.flatnonzero(out["bad_alpha"] > -np.inf)
     if bad.size:
@@ -322,7 +343,47 @@ def _transmit_compiled(theta, actuator, reset, geometry, friction, effects, dt, 
     )
 
 
-def _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt) -> TransmissionResult:
+def guide_terms(
+    g: int, wraps: GuideWraps, friction: FrictionLaw, effects: Effects, cum_rate, wear
+) -> tuple[NDArray, NDArray]:
+    """Wrap [rad] and capstan exponent [-] of guide index ``g`` for the sets beyond it, each (T, sets, 3).
+
+    The exponent-stage blocks of :mod:`friction_models` in the order of paper Eqs. (4)-(6):
+    the friction law, its growth with sliding speed (``velocity_friction``; ``cum_rate`` is
+    the running joint-angle rate :func:`~tendon_id.geometry.backward_rate` of the cumulative
+    angles, or None), the clearance and the wear factor ``wear[g]`` (``wear``: per guide, or
+    per frame and guide, or None).
+    """
+    geometry = wraps.geometry
+    alpha = wraps.at(g)
+    mu = guide_mu(friction, alpha, f"guide {g + 1}")
+    if "velocity_friction" in effects:
+        vf = effects.get("velocity_friction")
+        psi = tendon_azimuths(geometry)
+        speed = sliding_speed_at(cum_rate, g, psi, geometry.hole_radius)
+        mu = velocity_dependent_mu(mu, speed, vf.v_ref, vf.stribeck_drop, vf.v_stribeck)
+    w = None if wear is None else (wear[g] if wear.ndim == 1 else wear[:, g, None, None])
+    ph = guide_exponent(mu, alpha, geometry, effects, w)
+    shape = (wraps.wrap.shape[0], geometry.n_modules - g - 1, 3)
+    return np.broadcast_to(alpha, shape), np.broadcast_to(ph, shape)
+
+
+def _transmit_elastic(theta, actuator, reset, geometry, friction, effects, dt, wear) -> TransmissionResult:
+    """:func:`transmit` with the elastic chain, composed: the blocks' exponents, then each tendon's chain."""
+    n, n_frames = geometry.n_modules, theta.shape[0]
+    wraps = GuideWraps(theta, geometry, effects)
+    cum_rate = backward_rate(np.cumsum(theta, axis=1), reset, dt) if "velocity_friction" in effects else None
+    bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
+    phi = np.full((n_frames, n - 1, n, 3), np.nan)
+    loss = np.zeros((n_frames, n - 1, n, 3))
+    for g in range(n - 1):
+        alpha, phi[:, g, g + 1 :] = guide_terms(g, wraps, friction, effects, cum_rate, wear)
+        loss[:, g, g + 1 :] = bend * alpha
+    chain, sigma = transmit_elastic(theta, actuator, reset, geometry, effects, dt, phi, loss)
+    return TransmissionResult(chain=chain, sigma=sigma, wrap=wraps.wrap, phi=phi)
+
+
+def _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt, wear=None) -> TransmissionResult:
     """:func:`transmit` by the blocks of :mod:`friction_models`, one array operation per block and guide."""
     n = geometry.n_modules
     n_frames = theta.shape[0]
@@ -331,10 +392,10 @@ def _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt) 
     stick_slip = "stick_slip" in effects
     slide = effects.get("stick_slip") if stick_slip and effects.get("stick_slip").driver == "motion" else None
     edge_width = effects.get("stick_slip").smooth_width if stick_slip else 0.0  # 0: the sharp play operator
+    cum_rate = None
     if "velocity_friction" in effects or slide is not None:
         cum_rate = backward_rate(np.cumsum(theta, axis=1), reset, dt)  # d/dt of sum_{m<=j} theta_m
-    vf = effects.get("velocity_friction") if "velocity_friction" in effects else None
-    wear = wear_factors(geometry, effects)
+    wear = wear_factors(geometry, effects) if wear is None else wear
     bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
     visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
 
@@ -347,15 +408,8 @@ def _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt) 
     # guide by guide, so memory stays at (T, sets, 3) however long the chain.
     for g in range(n - 1):
         on = slice(g + 1, n)
-        alpha = wraps.at(g)
-        mu = guide_mu(friction, alpha, f"guide {g + 1}")
-        if vf is not None:
-            mu = velocity_dependent_mu(
-                mu, sliding_speed_at(cum_rate, g, psi, geometry.hole_radius), vf.v_ref, vf.stribeck_drop, vf.v_stribeck
-            )
-        ph = guide_exponent(mu, alpha, geometry, effects, None if wear is None else wear[g])
+        alpha, ph = guide_terms(g, wraps, friction, effects, cum_rate, wear)
         x = log_t[:, on]
-        ph = np.broadcast_to(ph, x.shape)
         if bend > 0:
             lo, hi = edges_with_loss(x - ph, x + ph, bending_loss(alpha, bend))
         else:

@@ -21,8 +21,8 @@ Three rewrites, each exact in real arithmetic, save most of the transcendental c
 * ``hypot(x, y)`` as ``sqrt(x^2 + y^2)``: the hole offsets are centimetres, far from overflow.
 
 What it runs: every effect of :data:`COMPILED_EFFECTS` with the sharp edge of ``stick_slip``
-(either driver).  The smooth edge (a population of play operators per guide) runs on the
-composed route.
+(any driver; the elastic one by :func:`friction_models.elastic_chain.elastic_chain_frame`,
+compiled).  The smooth edge (a population of play operators per guide) runs on the composed route.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from friction_models import SLACK_FLOOR_N
+from friction_models.elastic_chain import elastic_chain_frame
 from tendon_id.geometry import backward_rate, tendon_azimuths
 
 try:  # pragma: no cover - which branch runs depends on the install
@@ -40,14 +41,32 @@ try:  # pragma: no cover - which branch runs depends on the install
 except ImportError:  # pragma: no cover
     numba = None
 
-__all__ = ["COMPILED", "transmit_compiled"]
+__all__ = ["COMPILED", "contact_mode", "segment_length", "transmit_compiled"]
 
 #: Whether the compiled pass is available (numba importable).
 COMPILED = numba is not None
 #: Wrap models of the pass: the exact turns of the hole points, or wraps handed in.
 WRAP_GIVEN, WRAP_EXACT = 0, 1
-#: Slip models of the pass: none (forward slip), the play operator driven by tension, or by motion too.
-SLIP_NONE, SLIP_TENSION, SLIP_MOTION = 0, 1, 2
+#: Slip models of the pass: none (forward slip), the play operator driven by tension, or by motion
+#: too, or the elastic tendon through capstan bands (:mod:`friction_models.elastic_chain`).
+SLIP_NONE, SLIP_TENSION, SLIP_MOTION, SLIP_ELASTIC = 0, 1, 2, 3
+#: Contact models of the pass: none, the paper's hard gate, the clearance's dead zone.
+GATE_NONE, GATE_HARD, GATE_DEAD_ZONE = 0, 1, 2
+
+
+def contact_mode(effects) -> int:
+    """The pass's contact model for the ``contact`` effect's gate (it must be on)."""
+    return GATE_DEAD_ZONE if effects.get("contact").gate == "dead_zone" else GATE_HARD
+
+
+def segment_length(geometry) -> float:
+    """Unstretched length [m] of a tendon segment between two guides: one module's pitch.
+
+    The friction of a guide is lumped at its link (:doc:`/guide/simulator`), so the elastic
+    segment between guides ``k`` and ``k + 1`` runs from the middle of link ``k`` to the middle
+    of link ``k + 1``: a link and a joint gap.  The last segment, to the anchor, is taken as long.
+    """
+    return float(geometry.link_length + geometry.joint_gap)
 
 
 def _turn_into(R, m, ux, uy, h):  # pragma: no cover - compiled
@@ -70,20 +89,37 @@ def _turn_out(R, m, ux, uy, h):  # pragma: no cover - compiled
 def _pass(
     theta, actuator, restart, row, ux, uy, h, alpha_0, alpha_given, wrap_mode,
     A, B, contact, alpha_c, wear, vf, v_ref, drop, v_s, cum_rate, cos_psi, sin_psi, hole_r,
-    slip, slide_threshold, bend, floor, visco, a_lag, kappa,
+    slip, slide_threshold, bend, floor, visco, a_lag, kappa, k_seg,
     chain, sigma, phi, bad_alpha,
 ):  # fmt: skip  # pragma: no cover - compiled
     n_frames, n = actuator.shape[0], actuator.shape[1]
     R = np.empty((n, 9))
-    play = np.zeros((n - 1, n, 3))  # the play operator's output per guide [N]
-    z = np.zeros((n - 1, n, 3))  # the Zener element's relaxing part [N]
+    play = np.zeros((n - 1, n, 3))  # the play operator's output per guide [N] (elastic: segment tensions)
+    z = np.zeros((n - 1, n, 3))  # the Zener element's relaxing part [N] (elastic: the Maxwell branch's force)
     tension = np.empty((n, 3))
+    elastic = slip == SLIP_ELASTIC
+    m = n - 1 if elastic else 0  # the elastic chain's per-frame buffers: exponent, loss, length change, length
+    phi_b, loss_b, dl_b, len_prev = np.zeros((m, n, 3)), np.zeros((m, n, 3)), np.zeros((m, n, 3)), np.zeros((m, n, 3))
+    scratch = np.empty((8, m))
+    cc, ph_s, ls_s, kk, cp, em, ep, out = (
+        scratch[0],
+        scratch[1],
+        scratch[2],
+        scratch[3],
+        scratch[4],
+        scratch[5],
+        scratch[6],
+        scratch[7],
+    )
+    sg_s = np.zeros(m, dtype=np.int8)
+    kk[:] = k_seg
+    worn = wear.shape[0] > 1
     wide, deep = alpha_given.shape[2] > 1, alpha_given.shape[3] > 1
     cos_a0, sin_a0 = math.cos(alpha_0), math.sin(alpha_0)
     with_phi = phi.shape[0] > 0
     for t in range(n_frames):
         k, first = row[t], restart[t]
-        if wrap_mode == WRAP_EXACT:  # joint_rotation: R = R_y(theta_x) R_x(-theta_y), row-major
+        if wrap_mode == WRAP_EXACT or elastic:  # joint_rotation: R = R_y(theta_x) R_x(-theta_y), row-major
             for m in range(n):
                 ca, sa = math.cos(theta[t, m, 0]), math.sin(theta[t, m, 0])
                 cb, sb = math.cos(theta[t, m, 1]), math.sin(theta[t, m, 1])
@@ -106,14 +142,16 @@ def _pass(
         for g in range(n - 1):
             for j in range(g + 1, n):
                 for i in range(3):
+                    r2, z2 = 0.0, 0.0
+                    if wrap_mode == WRAP_EXACT or elastic:
+                        r2, z2 = _turn_out(R, g + 1, ux[j, i], uy[j, i], h)
                     if wrap_mode == WRAP_EXACT:
                         r1, z1 = _turn_into(R, g, ux[j, i], uy[j, i], h)
-                        r2, z2 = _turn_out(R, g + 1, ux[j, i], uy[j, i], h)
                         im = r1 * z2 + r2 * z1  # (z1 + i r1)(z2 + i r2): the argument adds up
                         re = z1 * z2 - r1 * r2
-                        if re > 0.0:  # the turns add up to less than pi/2 (always, for a snake)
+                        if re > 0.0 and im >= 0.0:  # the turns add up to less than pi/2 (always, for a snake)
                             turn = math.atan(im / re)
-                        else:  # atan2's half plane; im < 0 only past pi, where the wrap is capped
+                        else:  # atan2's upper half plane; im < 0 only past pi, where the wrap is capped
                             turn = math.atan2(im, re) if im >= 0.0 else math.pi
                         alpha = turn + alpha_0
                         if alpha < math.pi:  # cos(turn + alpha_0), with cos(turn) = re/|p|, sin(turn) = im/|p|
@@ -135,8 +173,23 @@ def _pass(
                             s = abs(v)
                             dip = drop * (1.0 - math.exp(-((s / v_s) ** 2))) if drop > 0.0 else 0.0
                             mu = mu * (1.0 - dip + s / v_ref)
-                    # paper Eqs. (5)-(6): phi = w_k mu beta alpha
-                    p = mu * (alpha if (not contact or alpha > alpha_c) else 0.0) * wear[g]
+                    # paper Eqs. (5)-(6): phi = w_k mu beta alpha; the dead zone: w_k mu max(alpha - alpha_c, 0)
+                    if contact == GATE_DEAD_ZONE:
+                        a_eff = alpha - alpha_c if alpha > alpha_c else 0.0
+                    elif contact == GATE_HARD:
+                        a_eff = alpha if alpha > alpha_c else 0.0
+                    else:
+                        a_eff = alpha
+                    p = mu * a_eff * wear[t if worn else 0, g]
+                    if elastic:  # the chain is solved once every guide's band is known (below)
+                        phi_b[g, j, i] = p
+                        loss_b[g, j, i] = bend * alpha
+                        seg = math.sqrt(r2 * r2 + z2 * z2)  # the segment across joint g + 2 [m]
+                        dl_b[g, j, i] = 0.0 if first else seg - len_prev[g, j, i]
+                        len_prev[g, j, i] = seg
+                        if k >= 0 and with_phi:
+                            phi[k, g, j, i] = p
+                        continue
                     x = tension[j, i]
                     e = math.exp(-p)
                     lo, hi = x * e, x / e
@@ -166,11 +219,36 @@ def _pass(
                         sigma[k, g, j, i] = sg
                         if with_phi:
                             phi[k, g, j, i] = p
+        if elastic:
+            for j in range(1, n):
+                for i in range(3):
+                    if first:  # taut from the actuator: every guide on its forward-slip edge
+                        x = actuator[t, j, i]
+                        for q in range(j):
+                            x = max(x * math.exp(-phi_b[q, j, i]) - loss_b[q, j, i], floor)
+                            out[q], sg_s[q], z[q, j, i] = x, 1, 0.0
+                    else:
+                        for q in range(j):
+                            cc[q] = play[q, j, i] + k_seg * dl_b[q, j, i] - (1.0 - a_lag) * z[q, j, i]
+                            ph_s[q], ls_s[q] = phi_b[q, j, i], loss_b[q, j, i]
+                        elastic_chain_frame(
+                            actuator[t, j, i], cc[:j], ph_s[:j], ls_s[:j], kk[:j], floor,
+                            cp[:j], em[:j], ep[:j], out[:j], sg_s[:j],
+                        )  # fmt: skip
+                        if visco:  # the standard linear solid's branch: kappa k times the stretch's change
+                            for q in range(j):
+                                z[q, j, i] = a_lag * z[q, j, i] + kappa * (out[q] - cc[q] + k_seg * dl_b[q, j, i])
+                    for q in range(j):
+                        play[q, j, i] = out[q]
+                        if k >= 0:
+                            chain[k, q + 1, j, i] = out[q]
+                            sigma[k, q, j, i] = sg_s[q]
 
 
 if COMPILED:
     _turn_into = numba.njit(cache=True, inline="always")(_turn_into)
     _turn_out = numba.njit(cache=True, inline="always")(_turn_out)
+    elastic_chain_frame = numba.njit(cache=True, inline="always")(elastic_chain_frame)
     _pass = numba.njit(cache=True, nogil=True)(_pass)
 
 
@@ -186,8 +264,8 @@ def transmit_compiled(
     wraps : ndarray, shape (T, N-1, 1 or N, 1 or 3), or None
         The wraps of the recipe's wrap model [rad]; None for the exact turns, which the pass
         computes itself.
-    wear : ndarray, shape (N-1,), or None
-        Friction multipliers ``w_k`` of ``guide_wear``; None for 1.
+    wear : ndarray, shape (N-1,) or (T, N-1), or None
+        Friction multipliers ``w_k`` of ``guide_wear`` (and of friction drift, per frame); None for 1.
 
     Returns
     -------
@@ -227,9 +305,9 @@ def transmit_compiled(
         wrap_mode=WRAP_EXACT if wraps is None else WRAP_GIVEN,
         A=np.array(friction.A, dtype=float),
         B=np.array(friction.B, dtype=float),
-        contact="contact" in effects,
+        contact=GATE_NONE if "contact" not in effects else contact_mode(effects),
         alpha_c=float(geometry.alpha_c),
-        wear=np.ones(n - 1) if wear is None else np.ascontiguousarray(wear, dtype=float),
+        wear=np.ones((1, n - 1)) if wear is None else np.ascontiguousarray(np.atleast_2d(wear), dtype=float),
         vf="velocity_friction" in effects,
         v_ref=float(vf.v_ref),
         drop=float(vf.stribeck_drop),
@@ -238,13 +316,16 @@ def transmit_compiled(
         cos_psi=np.cos(psi),
         sin_psi=np.sin(psi),
         hole_r=float(geometry.hole_radius),
-        slip=SLIP_NONE if ss is None else (SLIP_MOTION if ss.driver == "motion" else SLIP_TENSION),
+        slip=SLIP_NONE
+        if ss is None
+        else {"tension": SLIP_TENSION, "motion": SLIP_MOTION, "elastic": SLIP_ELASTIC}[ss.driver],
         slide_threshold=float(effects.get("stick_slip").slide_threshold),
         bend=float(effects.get("bending_stiffness").dT_b) if "bending_stiffness" in effects else 0.0,
         floor=float(SLACK_FLOOR_N),
         visco="viscoelastic" in effects,
         a_lag=float(np.exp(-dt / visco.tau_v)),
         kappa=float(visco.kappa),
+        k_seg=float(effects.get("stick_slip").EA) / segment_length(geometry),
         **out,
     )
     return out

@@ -127,7 +127,9 @@ class _Baseline(TransmissionModel):
     def _features(inp: TransmissionInputs, mode: str) -> np.ndarray:
         """Per-frame inputs (T, F): 8 unit inputs (unit form) or ``X(t)`` (5N, end to end)."""
         if mode == "unit":  # paper Eq. (7) at guide 1 for set 2 (normalised inside the network)
-            return np.concatenate([sin_q(inp.angles)[:, 0], np.cos(inp.wrap[:, :1]), inp.actuator[:, 1]], axis=1)
+            # No calibrated prior, so no routing wrap: the joints' part of the wrap (never the metadata's alpha_0).
+            wrap = inp.wrap_at(0.0)
+            return np.concatenate([sin_q(inp.angles)[:, 0], np.cos(wrap[:, :1]), inp.actuator[:, 1]], axis=1)
         t = inp.n_frames
         return np.concatenate([inp.actuator.reshape(t, -1), inp.angles.reshape(t, -1)], axis=1)
 

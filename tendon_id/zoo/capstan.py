@@ -2,14 +2,16 @@
 
 The capstan models propagate ``ln T`` of every tendon through the guides with
 exponent ``phi = mu_i(alpha_k) alpha_k`` (paper Eqs. (4)–(6)) and the blocks of
-:mod:`tendon_id.zoo.blocks`:
+:mod:`tendon_id.zoo.blocks`; every one also fits the routing wrap ``alpha_0`` of Eq. (3)
+(:class:`~tendon_id.zoo.blocks.RoutingWrap`), and the contact gate the hole's clearance
+``alpha_c``: a user knows neither, and a model never reads them from a recording's metadata:
 
 =====================  ==========================  ==========================
 name                   friction law                blocks
 =====================  ==========================  ==========================
 ``capstan-simple``     affine-cosine, Eq. (4)      none (beta = sigma = 1)
-``capstan-contact``    affine-cosine               contact gate
-``capstan-nonsmooth``  affine-cosine               contact gate, hysteresis
+``capstan-contact``    affine-cosine               contact (dead zone)
+``capstan-nonsmooth``  affine-cosine               contact, hysteresis
 ``capstan-const-mu``   constant mu (Euler–Eytelwein)  none
 =====================  ==========================  ==========================
 
@@ -25,20 +27,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.calibration.law import calibrate_capstan
-from tendon_id.checks import check_choice, check_count, check_positive
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
 from tendon_id.zoo.base import TransmissionModel
-from tendon_id.zoo.blocks import Block, HookContext, as_block, block_from_dict, compose
-from tendon_id.zoo.chain import ExponentTerms, apply_sensor, exponent, exponent_terms, propagate_chain
+from tendon_id.zoo.blocks import Block, ContactGate, RoutingWrap, block_from_dict, compose
+from tendon_id.zoo.capstan_structure import MU_LAWS, TYINGS, CapstanStructure
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 
-MU_LAWS = ("affine-cosine", "constant")
-TYINGS = ("tied", "per-guide")
+__all__ = [
+    "MU_LAWS",
+    "TYINGS",
+    "CapstanConstMu",
+    "CapstanContact",
+    "CapstanModel",
+    "CapstanNonsmooth",
+    "CapstanSimple",
+]
 
 
-class CapstanModel(TransmissionModel):
+class CapstanModel(CapstanStructure, TransmissionModel):
     """Capstan transmission ``T[k+1] = exp(-phi) T[k]`` with composable effect blocks.
 
     Parameters
@@ -46,11 +54,15 @@ class CapstanModel(TransmissionModel):
     mu_law : {"affine-cosine", "constant"}
         ``mu_i(alpha) = A_i cos(alpha) + B_i`` (paper Eq. (4)) or a constant ``mu_i``.
     blocks : sequence of Block or str
-        Effect blocks (:mod:`tendon_id.zoo.blocks`), e.g. ``("contact", "hysteresis")``.
+        Effect blocks (:mod:`tendon_id.zoo.blocks`), e.g. ``("contact", "hysteresis")``.  A
+        fitted routing wrap (:class:`~tendon_id.zoo.blocks.RoutingWrap`) is added unless one is
+        given (``RoutingWrap(alpha_0=..., fixed=True)`` holds a known one).
     tying : {"tied", "per-guide"}
         Share the law over guides, or give each guide its own.
     robot : dict, optional
-        Robot description; default: from the data's metadata.
+        Robot description; default: from the data's metadata.  Its sizes and azimuths are
+        read, and its measured hole and tendon sizes start the clearance; never its
+        ``alpha_0`` or ``alpha_c``, which are fitted.
     n_starts : int
         Optimiser starts for nonsmooth models (the first is the smooth solution).
     seed : int
@@ -72,12 +84,17 @@ class CapstanModel(TransmissionModel):
         Fitted law, ``G = 1`` (tied) or ``N - 1`` (per-guide); ``A_`` is zero for
         the constant law and ``B_`` is then ``mu``.
     block_values_ : dict
-        Fitted free block parameters, ``{block name: {param: value}}`` (what is saved).
+        Fitted free block parameters, ``{block name: {param: value}}`` (what is saved), the
+        routing wrap's ``{"routing": {"alpha_0": ...}}`` and the contact's ``alpha_c`` included.
     block_params_ : dict
         Every block's parameters at the fitted state (the free ones from ``block_values_``):
         the ``values`` the forward model runs with.
     calibration_ : dict
         Summary of the calibration (loss, optimiser status, evaluations, seconds).
+    alpha_0_ : float
+        The routing wrap the model runs with [rad] (fitted unless held).
+    alpha_c_ : float or None
+        The clearance angle [rad] (fitted unless held); None without a contact block.
     geometry_ : RobotGeometry
     n_modules_ : int
     """
@@ -106,150 +123,9 @@ class CapstanModel(TransmissionModel):
         self.maxeval = maxeval
         self.warmup_s = warmup_s
 
-    # ---- structure -----------------------------------------------------------
-    def check_settings(self) -> None:
-        self._validated()
-
-    def _validated(self) -> tuple[Block, ...]:
-        check_choice("mu_law", self.mu_law, MU_LAWS, what="friction law")
-        check_choice("tying", self.tying, TYINGS)
-        check_count("n_starts", self.n_starts, 1)
-        check_count("maxeval", self.maxeval, 10)
-        check_positive("warmup_s", self.warmup_s, "s", allow_zero=True)
-        return compose(self.blocks)
-
-    @property
-    def block_objects(self) -> tuple[Block, ...]:
-        """The blocks as objects (``blocks`` may hold names)."""
-        return self._validated()
-
-    def with_blocks(self, *extra: Block | str) -> CapstanModel:
-        """An unfitted copy of this model with ``extra`` blocks added (the diagnosis uses this)."""
-        params = {**self.get_params(), "mu_law": self.mu_law}
-        params["blocks"] = tuple(self.block_objects) + tuple(as_block(b) for b in extra)
-        return CapstanModel(**params)
-
-    def smooth_part(self) -> CapstanModel:
-        """An unfitted model of this one's law and tendon-independent exponent blocks: its part linear in the law."""
-        blocks = [b for b in self.block_objects if b.stage == "exponent" and not b.per_tendon]
-        return CapstanModel(mu_law=self.mu_law, blocks=blocks, tying=self.tying)
-
-    def free_parameters(self) -> list[tuple[str, str, tuple[float, float], float]]:
-        """Block parameters calibrated with the law: ``(block, param, bounds, initial)``."""
-        out = []
-        for b in self.block_objects:
-            if b.fixed:
-                continue
-            for p, v in b.initial().items():
-                out.append((b.name, p, tuple(b.bounds[p]), float(v)))
-        return out
-
-    @property
-    def is_smooth(self) -> bool:
-        """True when ``ln T_N`` is linear in the law: only tendon-independent exponent blocks, none free."""
-        nonlinear = any(b.stage != "exponent" or b.per_tendon for b in self.block_objects)
-        return not nonlinear and not self.free_parameters()
-
-    # ---- forward model (tendon_id.zoo.chain) ------------------------------------------
-    def block_params(self, overrides: dict | None = None) -> dict[str, dict[str, float]]:
-        """Every block's parameters ``{block: {param: value}}``: the blocks' own values, updated by ``overrides``.
-
-        This is the ``values`` argument of :meth:`exponent`, :meth:`propagate` and
-        :meth:`terminal_reading`; a fitted model's are :attr:`block_params_`.
-        """
-        vals = {b.name: b.initial() for b in self.block_objects}
-        for name, d in (overrides or {}).items():
-            vals.setdefault(name, {}).update(d)
-        return vals
-
-    def exponent_multiplier(self, inputs: TransmissionInputs, values: dict | None = None) -> NDArray:
-        """Product of the tendon-independent exponent blocks' factors at the backbone wrap, shape (T, N-1, 1).
-
-        The linear design of :class:`~tendon_id.calibration.problem.LawProblem` uses it; per-tendon blocks
-        (wraps, sliding speeds) count as 1 there.
-        """
-        values = self.block_params() if values is None else values
-        ctx = HookContext(inputs, np.array([inputs.n_modules - 1]), np.arange(3), alpha=inputs.wrap[:, :, None, None])
-        m = np.ones(inputs.wrap.shape + (1, 1))
-        for b in self.block_objects:
-            if b.stage == "exponent" and not b.per_tendon:
-                m = b.exponent(m, ctx, values.get(b.name, {}))
-        return m[..., 0]
-
-    def exponent_terms(
-        self,
-        inputs: TransmissionInputs,
-        values: dict | None = None,
-        sets: NDArray | None = None,
-        tendons: NDArray | None = None,
-    ) -> ExponentTerms:
-        """The law-free part of the exponent (wrap and exponent blocks), reusable while only the law changes."""
-        return exponent_terms(self.block_objects, inputs, *self._chain_defaults(inputs, values, sets, tendons))
-
-    def _chain_defaults(self, inputs, values, sets, tendons) -> tuple[dict, NDArray, NDArray]:
-        """``values``, ``sets`` and ``tendons`` with their defaults: the blocks' values, every set, every tendon."""
-        values = self.block_params() if values is None else values
-        sets = np.arange(inputs.n_modules) if sets is None else np.asarray(sets)
-        tendons = np.arange(3) if tendons is None else np.asarray(tendons)
-        return values, sets, tendons
-
-    def exponent(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None) -> NDArray:
-        """Capstan exponent ``phi[t, k, j, i]`` (paper Eq. (5) with the blocks), shape (T, N-1, N|1, m).
-
-        ``A``, ``B`` have shape (G, m) for ``m`` tendons; the constant law uses ``B`` as mu.
-        The set axis has length 1 unless a block makes the exponent depend on the set.
-        """
-        return exponent(self.mu_law, self.exponent_terms(inputs, values, tendons=np.arange(A.shape[1])), A, B)
-
-    def propagate(
-        self,
-        inputs: TransmissionInputs,
-        A: NDArray,
-        B: NDArray,
-        values: dict | None = None,
-        *,
-        sets: NDArray | None = None,
-        tendons: NDArray | None = None,
-        keep_chain: bool = True,
-        terms: ExponentTerms | None = None,
-    ) -> NDArray:
-        """Propagate ``ln T`` through the guides (paper Algorithm 1 with analytic ratios).
-
-        Parameters
-        ----------
-        inputs : TransmissionInputs
-        A, B : ndarray, shape (G, m)
-            Law per guide (G = 1 tied) for the ``m`` tendons in ``tendons``.
-        values : dict, optional
-            Block parameters.
-        sets : ndarray of int, optional
-            0-based set indices to propagate (default all).
-        tendons : ndarray of int, optional
-            0-based tendon indices (default all three).
-        keep_chain : bool
-            Return the whole chain ``ln T[k, j, i]``, shape (T, N, S, m) with NaN
-            off the path; else only the joint sides ``ln T[j, j, i]``, shape (T, S, m).
-        terms : ExponentTerms, optional
-            Precomputed :meth:`exponent_terms` for these sets and tendons.
-        """
-        values, sets, tendons = self._chain_defaults(inputs, values, sets, tendons)
-        return propagate_chain(
-            self.block_objects, self.mu_law, inputs, A, B, values, sets, tendons, keep_chain=keep_chain, terms=terms
-        )
-
-    def terminal_reading(
-        self,
-        inputs: TransmissionInputs,
-        A: NDArray,
-        B: NDArray,
-        values: dict | None = None,
-        tendons: NDArray | None = None,
-        terms: ExponentTerms | None = None,
-    ) -> NDArray:
-        """Predicted terminal load-cell reading [N], shape (T, m) (the sensor blocks applied)."""
-        values, sets, tendons = self._chain_defaults(inputs, values, np.array([inputs.n_modules - 1]), tendons)
-        log_t = self.propagate(inputs, A, B, values, sets=sets, tendons=tendons, keep_chain=False, terms=terms)
-        return apply_sensor(self.block_objects, np.exp(log_t[:, 0]), HookContext(inputs, sets, tendons), values)
+    @classmethod
+    def general(cls) -> type[CapstanModel]:
+        return CapstanModel
 
     # ---- estimator API ---------------------------------------------------------------
     def fit(self, data: Recording | Sequence[Recording]) -> CapstanModel:
@@ -260,7 +136,7 @@ class CapstanModel(TransmissionModel):
         self._validated()
         recs = [r.fitting_view() for r in as_recordings(data)]
         inputs = TransmissionInputs.from_recordings(recs, self.robot)
-        result = calibrate_capstan(self, inputs)
+        result = calibrate_capstan(self.started_from(inputs.geometry), inputs)
         self.A_, self.B_ = result.A, result.B
         self.block_values_ = result.block_values
         self.calibration_ = result.to_dict()
@@ -297,6 +173,18 @@ class CapstanModel(TransmissionModel):
         """Every block's parameters at the fitted state: :attr:`block_values_` over the blocks' own values."""
         self.check_fitted()
         return self.block_params(self.block_values_)
+
+    @property
+    def alpha_0_(self) -> float:
+        """The routing wrap the fitted model runs with [rad]."""
+        routing = next(b for b in self.block_objects if b.stage == "routing")
+        return float(self.block_params_[routing.name]["alpha_0"])
+
+    @property
+    def alpha_c_(self) -> float | None:
+        """The clearance angle the fitted model runs with [rad], or None without a contact block."""
+        contact = [b for b in self.block_objects if isinstance(b, ContactGate)]
+        return float(self.block_params_[contact[0].name]["alpha_c"]) if contact else None
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``."""
@@ -344,6 +232,7 @@ class CapstanModel(TransmissionModel):
     def _restore(self, state, arrays):
         self.n_modules_ = int(state["n_modules"])
         self.geometry_ = RobotGeometry.from_dict(state["geometry"])
+        self._hold_saved_geometry()
         self.block_values_ = {k: dict(v) for k, v in state.get("block_values", {}).items()}
         self.calibration_ = state.get("calibration", {})
         self.A_ = np.asarray(arrays["A"], dtype=float)
@@ -356,6 +245,21 @@ class CapstanModel(TransmissionModel):
             )
         if not (np.all(np.isfinite(self.A_)) and np.all(np.isfinite(self.B_))):
             raise ConfigError("arrays A and B hold NaN or inf")
+
+    def _hold_saved_geometry(self) -> None:
+        """A model saved before the routing wrap and the clearance were fitted ran with its robot's: hold them.
+
+        Such a file has no routing block and a contact block without ``alpha_c`` (a fitted model
+        saves its blocks' values); it was calibrated with the hard gate at ``geometry_``'s angles,
+        which are what it was fitted with, so it loads and predicts as it did.
+        """
+        given = compose(self.blocks)
+        if any(b.stage == "routing" for b in given):
+            return
+        geo = self.geometry_
+        held = ContactGate(alpha_c=geo.alpha_c, gate="hard", fixed=True)
+        self.blocks = tuple(held if isinstance(b, ContactGate) else b for b in given)
+        self.blocks += (RoutingWrap(alpha_0=geo.alpha_0, fixed=True),)
 
 
 def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[CapstanModel]:

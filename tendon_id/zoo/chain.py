@@ -39,15 +39,26 @@ class ExponentTerms:
 
 
 def exponent_terms(blocks: Sequence[Block], inputs, values: dict, sets: NDArray, tendons: NDArray) -> ExponentTerms:
-    """Apply the ``wrap`` and ``exponent`` blocks: what the exponent is, short of the law's coefficients."""
+    """Apply the ``wrap``, ``routing`` and ``exponent`` blocks: the exponent, short of the law's coefficients."""
     ctx = HookContext(inputs, np.asarray(sets), np.asarray(tendons))
-    alpha = inputs.wrap[:, :, None, None]  # the backbone wrap, paper Eq. (3), shared by sets and tendons
-    cos_alpha = inputs.cos_wrap[:, :, None, None]
-    wraps = [b for b in blocks if b.stage == "wrap"]
-    for b in wraps:
-        alpha = b.wrap(alpha, ctx, values.get(b.name, {}))
-    if wraps:
-        cos_alpha = np.cos(alpha)
+    routing = [b for b in blocks if b.stage == "routing"]
+    per_tendon = any(b.stage == "wrap" for b in blocks)
+    key = repr([(b.name, sorted(values.get(b.name, {}).items())) for b in routing])
+    last = inputs.cache.get("backbone")
+    if per_tendon or last is None or last[0] != key:
+        alpha = inputs.bend_wrap[:, :, None, None]  # paper Eq. (3)'s half-bends, shared by sets and tendons
+        for stage in ("wrap", "routing"):  # a tendon's own turns first, then the fitted routing wrap added to them
+            for b in blocks:
+                if b.stage == stage:
+                    alpha = getattr(b, stage)(alpha, ctx, values.get(b.name, {}))
+        last = (key, alpha, np.cos(alpha))
+        if not per_tendon:
+            # The backbone wrap at this routing wrap, kept with its cosine: calibration evaluates the
+            # chain thousands of times while only the law changes.  Read-only, as it is shared.
+            for a in last[1:]:
+                a.flags.writeable = False
+            inputs.cache["backbone"] = last
+    _, alpha, cos_alpha = last
     ctx = replace(ctx, alpha=alpha)
     scaled = alpha
     for b in blocks:

@@ -3,7 +3,9 @@
 A PG-CHTM unit at guide ``k`` reads ``sin(q_k)`` (Eq. (2)), the backbone wrap ``alpha_k``
 (Eq. (3)) and the log of the tension entering the guide; the learned models of the zoo take
 them from here, per frame (:func:`unit_inputs`) or padded per trajectory for a batch
-(:func:`padded_unit_inputs`).
+(:func:`padded_unit_inputs`).  The wrap's routing part ``alpha_0`` is the calibrated prior's
+(its fitted routing wrap, :attr:`~tendon_id.zoo.capstan.CapstanModel.alpha_0_`), or 0 for a
+model without one: never the robot's metadata, which holds the simulator's truth.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ def unit_inputs(angles: NDArray, actuator: NDArray, alpha_0: float) -> tuple[NDA
     actuator : ndarray, shape (..., N, 3)
         Actuator-side tensions ``T[1, j, i]`` [N].
     alpha_0 : float
-        Routing wrap [rad].
+        Routing wrap [rad]: the calibrated prior's, or 0.
 
     Returns
     -------
@@ -41,7 +43,7 @@ def unit_inputs(angles: NDArray, actuator: NDArray, alpha_0: float) -> tuple[NDA
 
 
 def padded_unit_inputs(
-    inputs: TransmissionInputs, pieces: Sequence[tuple[int, int]], modules: slice = slice(None)
+    inputs: TransmissionInputs, pieces: Sequence[tuple[int, int]], alpha_0: float, modules: slice = slice(None)
 ) -> dict[str, NDArray]:
     """Unit inputs of frame ranges ``pieces`` stacked into a zero-padded batch.
 
@@ -50,6 +52,8 @@ def padded_unit_inputs(
     inputs : TransmissionInputs
     pieces : sequence of (start, end)
         Frame ranges, one batch row each (trajectories, or chunks of them).
+    alpha_0 : float
+        Routing wrap [rad]: the calibrated prior's, or 0.
     modules : slice
         Which sets' actuator-side tensions to keep (all by default).
 
@@ -63,7 +67,7 @@ def padded_unit_inputs(
     length = max(e - s for s, e in pieces)
     n, b = inputs.n_modules, len(pieces)
     n_sets = len(range(n)[modules])
-    sq, alpha = sin_q(inputs.angles), inputs.wrap
+    sq, alpha = sin_q(inputs.angles), inputs.wrap_at(alpha_0)
     out = {
         "sin_q": np.zeros((b, length, n - 1, 4)),
         "alpha": np.zeros((b, length, n - 1)),

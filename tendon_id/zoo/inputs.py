@@ -73,6 +73,8 @@ class TransmissionInputs(FrameInputs):
     dt : float
         Sample period [s].
     geometry : RobotGeometry
+        The robot: its sizes and azimuths.  Its ``alpha_0`` and ``alpha_c`` are the simulator's
+        truth, which no model reads (the capstan models fit both).
     """
 
     frame_fields: ClassVar[tuple[str, ...]] = ("angles", "actuator", "terminal", "reset", "clock")
@@ -91,14 +93,20 @@ class TransmissionInputs(FrameInputs):
         return self.angles.shape[1]
 
     @cached_property
-    def wrap(self) -> NDArray[np.float64]:
-        """Backbone wrap per guide, paper Eq. (3), shape (T, N-1) [rad]."""
-        return backbone_wrap(self.angles, self.geometry.alpha_0)
+    def bend_wrap(self) -> NDArray[np.float64]:
+        """The joints' part of the backbone wrap, ``|theta_k| / 2 + |theta_{k+1}| / 2``, shape (T, N-1) [rad].
 
-    @cached_property
-    def cos_wrap(self) -> NDArray[np.float64]:
-        """``cos(alpha_k)``, shape (T, N-1) (cached: calibration evaluates it thousands of times)."""
-        return np.cos(self.wrap)
+        Paper Eq. (3) without the routing wrap ``alpha_0``: a model adds its own, fitted
+        (:meth:`wrap_at`), never the geometry's ``alpha_0``, which is the simulator's truth.
+        """
+        return backbone_wrap(self.angles, 0.0)
+
+    def wrap_at(self, alpha_0: float) -> NDArray[np.float64]:
+        """Backbone wrap per guide with routing wrap ``alpha_0`` [rad], paper Eq. (3), shape (T, N-1) [rad].
+
+        Equal, bit for bit, to :func:`~tendon_id.geometry.backbone_wrap` with that ``alpha_0``.
+        """
+        return np.minimum(self.bend_wrap + float(alpha_0), np.pi)
 
     @cached_property
     def log_actuator(self) -> NDArray[np.float64]:

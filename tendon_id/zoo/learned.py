@@ -49,7 +49,8 @@ class PGCHTC(GuardedCascade):
         Where the capstan prior's ``(A_i, B_i)`` (Eq. (9)) come from: a zoo model name
         calibrated on the training split (default ``"capstan-nonsmooth"``, the best physics
         baseline, as the paper takes its prior from its calibrated baseline), or an explicit
-        ``{"A": [3 numbers], "B": [3 numbers]}``.
+        ``{"A": [3 numbers], "B": [3 numbers]}``, optionally with the routing wrap ``"alpha_0"``
+        (default 0) and the clearance ``"alpha_c"`` [rad] (default: from the robot's measured sizes).
     window : int, optional
         History window ``h`` [frames]; default the preset's (20).
     val_fraction : float
@@ -62,10 +63,12 @@ class PGCHTC(GuardedCascade):
         Robot description; default from the data's metadata.
     progress : bool, optional
         Progress bars (default: on a terminal).
-    fallback : bool
+    fallback : {False, True, "per-kind"}
         When the trained cascade predicts the validation trajectories worse than its own
         calibrated prior model (the guard, :mod:`tendon_id.zoo.guard`), predict with that
-        prior instead.  Default False: the paper's behaviour, the cascade, with a warning.
+        prior instead: True where the pooled validation is worse; ``"per-kind"`` also, when
+        the pool passes, on the kinds of motion (steps, scans, paths) that are worse.
+        Default False: the paper's behaviour, the cascade, with a warning.
 
     Attributes
     ----------
@@ -76,9 +79,11 @@ class PGCHTC(GuardedCascade):
         Per-epoch train and validation losses of both stages.
     prior_model_ : CapstanModel
         The calibrated prior model (the one ``prior`` names, or capstan-nonsmooth with the given law).
+    alpha_0_ : float
+        The routing wrap of the unit inputs' wrap [rad]: the prior's fitted one (0 without a prior).
     guard_ : dict
         Validation terminal RMSE of the cascade and of its prior [N], their ratio, ``worse``
-        and ``fallback`` (:func:`tendon_id.zoo.guard.guard_report`).
+        and ``fallback``, pooled and per kind of motion (:func:`tendon_id.zoo.guard.guard_report`).
     """
 
     name = "pg-chtc"
@@ -99,7 +104,7 @@ class PGCHTC(GuardedCascade):
         seed: int = 0,
         robot: dict | None = None,
         progress: bool | None = None,
-        fallback: bool = False,
+        fallback: bool | str = False,
     ):
         self.preset = preset
         self.physics_reg = physics_reg
@@ -138,9 +143,9 @@ class PGCHTC(GuardedCascade):
         inp = self._inputs(recs, self.geometry_)
         pieces = [(s, min(s + chunk, e)) for s0, e in inp.trajectory_bounds for s in range(s0, e, chunk)]
         n = inp.n_modules
-        arr = padded_unit_inputs(inp, pieces, modules=slice(n - 1, n))  # the cascade's input: set N's tension
+        arr = padded_unit_inputs(inp, pieces, self.alpha_0_, modules=slice(n - 1, n))  # the input: set N's tension
         c, L = arr["alpha"].shape[:2]
-        alpha = inp.wrap
+        alpha = inp.wrap_at(self.alpha_0_)
         phys = -(A * np.cos(alpha)[..., None] + B) * alpha[..., None]  # ln r_phys, Eq. (9)
         arr.update(
             since=np.zeros((c, L), dtype=np.int64),
@@ -166,9 +171,16 @@ class PGCHTC(GuardedCascade):
             torch.as_tensor(arr["mask"], device=device),
         )
 
+    @property
+    def alpha_0_(self) -> float:
+        """The routing wrap of the unit inputs' wrap [rad]: the calibrated prior's (0 for a model saved without one)."""
+        prior = getattr(self, "prior_model_", None)
+        return 0.0 if prior is None else prior.alpha_0_
+
     # ---- estimator API -----------------------------------------------------------------
     def fit(self, data: Recording | Sequence[Recording]) -> PGCHTC:
         """Calibrate the capstan prior, then train the cascade on terminal-only labels (two stages)."""
+        self.check_settings()
         cfg = self._unit_config()
         recs = [r.fitting_view() for r in as_recordings(data)]
         for r in recs:
@@ -184,8 +196,12 @@ class PGCHTC(GuardedCascade):
         if isinstance(self.prior, dict):
             self.prior_A_ = np.asarray(self.prior["A"], dtype=float).reshape(3)
             self.prior_B_ = np.asarray(self.prior["B"], dtype=float).reshape(3)
+            # No fitted geometry: the routing wrap given, else 0; the clearance given, else the robot's sizes'.
+            given = {"routing": {"alpha_0": float(self.prior.get("alpha_0", 0.0))}}
+            if "alpha_c" in self.prior:
+                given["contact"] = {"alpha_c": float(self.prior["alpha_c"])}
             law = make("capstan-nonsmooth", robot=self.geometry_).fitted_with(
-                self.prior_A_, self.prior_B_, self.geometry_, self.n_modules_
+                self.prior_A_, self.prior_B_, self.geometry_, self.n_modules_, given
             )
         else:  # Eq. (9) with the law of a calibrated capstan model (tied)
             law = make(self.prior, robot=self.geometry_, tying="tied", seed=self.seed).fit(train)
@@ -196,7 +212,7 @@ class PGCHTC(GuardedCascade):
         fit_feature_norm(
             cascade,
             sin_q(tr_inp.angles),
-            tr_inp.wrap,
+            tr_inp.wrap_at(self.alpha_0_),
             np.concatenate([tr_inp.actuator.reshape(-1, 3), tr_inp.terminal]),
         )
         cascade.to(device)
@@ -223,7 +239,7 @@ class PGCHTC(GuardedCascade):
         """The cascade's batch input, one padded row per trajectory, with the trajectories' bounds and inputs."""
         inp = self._inputs(recs, self.geometry_)
         bounds = inp.trajectory_bounds
-        a = padded_unit_inputs(inp, bounds)
+        a = padded_unit_inputs(inp, bounds, self.alpha_0_)
         since = np.zeros(a["alpha"].shape[:2], dtype=np.int64)
         for bi, (s, e) in enumerate(bounds):
             since[bi, : e - s] = np.arange(e - s)
@@ -260,7 +276,7 @@ class PGCHTC(GuardedCascade):
             chain[s:e] = np.exp(log_chain)
         chain[:, 0] = inp.actuator
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
-        return chain
+        return self._prior_where_worse(recs, chain)
 
     def streamer(
         self, engine: str = "auto", threads: int | str | None = None, weights: str = "float32"
@@ -276,6 +292,7 @@ class PGCHTC(GuardedCascade):
                 "fallback=True), which PG-CHTC's engines do not stream; stream pg-chtc-ns instead, whose correction "
                 "is kept only where it helps"
             )
+        self._warn_stream_kinds()
         return PGCHTCStream(self, engine, threads, weights)
 
     # ---- persistence ----------------------------------------------------------------------
@@ -351,7 +368,7 @@ class PGCHTCStream:
                 raise ConfigError(f"weights={weights!r} needs the native engine; the torch engine computes in float32")
             engine = "native"
         self.model = model
-        self.alpha0 = model.geometry_.alpha_0
+        self.alpha0 = model.alpha_0_  # the prior's fitted routing wrap, never the robot's metadata
         self.engine_name = "torch"
         if engine in ("auto", "native"):
             try:

@@ -107,8 +107,10 @@ class PGCHTCNS(GuardedCascade):
         Robot description; default from the data's metadata.
     progress : bool, optional
         Progress bars (default: on a terminal).
-    fallback : bool
-        Predict with the prior when the guard finds the cascade worse on validation.
+    fallback : {False, True, "per-kind"}
+        Predict with the prior when the guard finds the cascade worse on validation: True
+        where the pool is worse, ``"per-kind"`` also on the kinds of motion that are worse
+        (:mod:`tendon_id.zoo.guard`).
 
     Attributes
     ----------
@@ -116,8 +118,11 @@ class PGCHTCNS(GuardedCascade):
         None without correction.
     prior_model_ : CapstanModel
         The calibrated nonsmooth capstan.
+    alpha_0_ : float
+        The routing wrap of the unit inputs' wrap [rad]: the prior's fitted one.
     guard_ : dict
-        Validation terminal RMSE of the cascade and of its prior [N] (:mod:`tendon_id.zoo.guard`).
+        Validation terminal RMSE of the cascade and of its prior [N], pooled and per kind of
+        motion (:mod:`tendon_id.zoo.guard`).
     history_ : dict
         Per-epoch losses of the correction's training.
     dt_ : float
@@ -142,7 +147,7 @@ class PGCHTCNS(GuardedCascade):
         seed: int = 0,
         robot: dict | None = None,
         progress: bool | None = None,
-        fallback: bool = False,
+        fallback: bool | str = False,
     ):
         self.preset = preset
         self.correction = correction
@@ -174,15 +179,22 @@ class PGCHTCNS(GuardedCascade):
         f64 = lambda a: torch.as_tensor(a, dtype=torch.float64, device=device)  # noqa: E731
         return CorrectionInputs(
             f64(sin_q(inputs.angles)),
-            f64(inputs.wrap),
+            f64(inputs.wrap_at(self.alpha_0_)),
             f64(np.log(inputs.actuator[:, sets])),
             f64(log_ratio),
             f32(state),
         )
 
+    @property
+    def alpha_0_(self) -> float:
+        """The routing wrap of the unit inputs' wrap [rad]: the calibrated prior's (0 for a model saved without one)."""
+        prior = getattr(self, "prior_model_", None)
+        return 0.0 if prior is None else prior.alpha_0_
+
     # ---- estimator API -----------------------------------------------------------------
     def fit(self, data: Recording | Sequence[Recording]) -> PGCHTCNS:
         """Calibrate capstan-nonsmooth, then train the bounded correction on terminal-only labels."""
+        self.check_settings()
         cfg = self.correction_config()
         recs = [r.fitting_view() for r in as_recordings(data)]
         allrec = Recording.concat(recs) if len(recs) > 1 else recs[0]
@@ -204,7 +216,8 @@ class PGCHTCNS(GuardedCascade):
         n = allrec.n_modules
         cascade = CorrectedCascade(n - 1, cfg, tied=bool(self.tied))
         tr = TransmissionInputs.from_recordings([train], self.geometry_)
-        fit_feature_norm(cascade, sin_q(tr.angles), tr.wrap, np.concatenate([tr.actuator.reshape(-1, 3), tr.terminal]))
+        wrap = tr.wrap_at(self.alpha_0_)
+        fit_feature_norm(cascade, sin_q(tr.angles), wrap, np.concatenate([tr.actuator.reshape(-1, 3), tr.terminal]))
         cascade.to(device)
         terminal = np.array([n - 1])
         label = lambda r: torch.as_tensor(np.log(r.terminal), dtype=torch.float32, device=device)  # noqa: E731
@@ -244,13 +257,14 @@ class PGCHTCNS(GuardedCascade):
         chain = np.exp(np.concatenate([np.zeros((len(act), 1, n, 3)), cum], axis=1) + np.log(act)[:, None])
         chain[:, 0] = act
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
-        return chain
+        return self._prior_where_worse(recs, chain)
 
     def streamer(self):
         """A frame-by-frame estimator: O(1) per frame (:class:`tendon_id.zoo.streaming_ns.PGCHTCNSStream`)."""
         from tendon_id.zoo.streaming_ns import PGCHTCNSStream
 
         self.check_fitted()
+        self._warn_stream_kinds()
         return PGCHTCNSStream(self)
 
     # ---- persistence ----------------------------------------------------------------------

@@ -94,7 +94,7 @@ class PGCHTCNSStream:
         start = self.streams is None
         if start:
             self.streams = PlayStateStream((n - 1, n, 3), self.dt)  # guides x sets x tendons
-        sq, alpha, log_act = unit_inputs(angles, actuator, self.geometry.alpha_0)
+        sq, alpha, log_act = unit_inputs(angles, actuator, self.prior.alpha_0_)  # the prior's fitted routing wrap
         phi = np.broadcast_to(self._phi(angles, actuator), (n - 1, n, 3))
         x_in, lo, hi = (np.empty((n - 1, n, 3)) for _ in range(3))
         x = log_act  # the prior's own chain; sets that no longer pass a guide carry values nobody reads

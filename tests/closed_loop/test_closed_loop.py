@@ -33,7 +33,9 @@ def recipe():
     return load_recipe("snake12-paper")
 
 
-def test_stepper_runs_the_same_physics_as_transmit(recipe):
+@pytest.mark.parametrize("name", ["snake12-paper", "snake12-elastic"])
+def test_stepper_runs_the_same_physics_as_transmit(name):
+    recipe = load_recipe(name)
     res = simulate(recipe, "posterior-3", frames=300, progress=False)
     th, act = res.session.theta[:200], res.session.actuator[:200]
     reset = np.zeros(200, dtype=bool)

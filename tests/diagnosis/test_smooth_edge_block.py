@@ -13,7 +13,7 @@ from tendon_id.diagnosis import diagnose
 from tendon_id.errors import ConfigError
 from tendon_id.sim import Effects, Sensors, simulate
 from tendon_id.sim.effects import BENCH_EDGE_WIDTH
-from tendon_id.zoo.blocks import EFFECT_BLOCKS, SmoothEdge, as_block, block_from_dict
+from tendon_id.zoo.blocks import EFFECT_BLOCKS, ContactGate, RoutingWrap, SmoothEdge, as_block, block_from_dict
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
 from tendon_id.zoo.snake.refit import refit
@@ -42,18 +42,21 @@ def test_block_refines_stick_slip_and_round_trips():
     inputs = TransmissionInputs.from_recordings(recs)
     law = (np.array([RECIPE.friction.A]), np.array([RECIPE.friction.B]))
     edge = SmoothEdge(width=0.4)
-    a = CapstanModel(blocks=("contact", "hysteresis", edge)).terminal_reading(inputs, *law)
-    b = CapstanModel(blocks=(edge, "contact", "hysteresis")).terminal_reading(inputs, *law)
+    # The robot's clearance and routing wrap, as a fit finds them (tests/zoo/test_clearance_fitted.py).
+    contact, routing = ContactGate(alpha_c=RECIPE.robot.alpha_c), RoutingWrap(alpha_0=RECIPE.robot.alpha_0)
+    a = CapstanModel(blocks=(contact, "hysteresis", edge, routing)).terminal_reading(inputs, *law)
+    b = CapstanModel(blocks=(edge, contact, routing, "hysteresis")).terminal_reading(inputs, *law)
     np.testing.assert_array_equal(a, b)
     assert np.max(np.abs(a - inputs.terminal)) < 2e-4  # [N]
-    sharp = CapstanModel(blocks=("contact", "hysteresis")).terminal_reading(inputs, *law)
+    sharp = CapstanModel(blocks=(contact, "hysteresis", routing)).terminal_reading(inputs, *law)
     assert np.max(np.abs(sharp - inputs.terminal)) > 0.1  # and the edge is there to be modelled
 
 
 def test_oracle_block_is_the_option():
     effects = Effects(enabled=("contact", "stick_slip"), params={"stick_slip": {"edge": "smooth", "edge_width": 0.3}})
-    blocks = oracle_blocks(effects)
-    assert [b.name for b in blocks] == ["contact", "hysteresis", "smooth_edge"] and blocks[-1].width == 0.3
+    blocks = oracle_blocks(effects, RECIPE.robot)
+    assert [b.name for b in blocks] == ["contact", "hysteresis", "smooth_edge", "routing"] and blocks[2].width == 0.3
+    assert (blocks[0].alpha_c, blocks[0].gate, blocks[-1].alpha_0) == (RECIPE.robot.alpha_c, "dead_zone", 0.05)
     with pytest.raises(ConfigError, match="option of stick_slip"):
         oracle_block("smooth_edge", Effects(enabled=("contact", "stick_slip")))
     assert as_block("smooth_edge") == SmoothEdge()

@@ -8,6 +8,7 @@ from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import backbone_wrap
 from tendon_id.sim import EFFECT_NAMES, PROTOCOL_NAMES, simulate
+from tendon_id.sim.sensor_chain import SENSOR_CHAIN_EFFECTS
 
 
 @pytest.fixture(scope="module")
@@ -110,6 +111,10 @@ def test_every_effect_switches_and_changes_the_transmission(recipe, effect):
     base = simulate(recipe, "planned-paths", effects="none", frames=400, seed=4).recording
     on = simulate(recipe, "planned-paths", effects=effect, frames=400, seed=4).recording
     assert on.meta["effects"] == [effect]
+    if effect in SENSOR_CHAIN_EFFECTS:  # a sensor's: the physical truth stays, a stream changes
+        np.testing.assert_array_equal(on.joint_truth[:, 1:-1], base.joint_truth[:, 1:-1])
+        assert any(not np.allclose(getattr(on, s), getattr(base, s)) for s in ("angles", "actuator", "terminal"))
+        return
     # Inputs are identical; only the physics differs.
     np.testing.assert_array_equal(on.actuator, base.actuator)
     np.testing.assert_array_equal(on.angles, base.angles)

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
-from tendon_id.sim import EFFECT_NAMES, simulate, transmit
+from tendon_id.sim import simulate, transmit
 from tendon_id.sim import transmission_kernel as kernel
 from tendon_id.sim.effects import Effects
 from tendon_id.sim.transmission import COMPILED_EFFECTS, FrictionLaw
@@ -44,7 +44,7 @@ EFFECT_SETS = [
     (),
     *[(e,) for e in COMPILED_EFFECTS if e != "sensor_bias"],
     ("contact", "stick_slip", "viscoelastic", "per_tendon_wrap"),  # the recipe's
-    EFFECT_NAMES,
+    COMPILED_EFFECTS,  # every effect the pass runs
 ]
 
 
@@ -70,7 +70,7 @@ def test_compiled_pass_matches_the_composed_blocks(session, names):
 )
 def test_compiled_pass_matches_every_setting(session, params):
     recipe, ses = session
-    eff = Effects(enabled=EFFECT_NAMES, params={**recipe.effects.to_dict()["params"], **params})
+    eff = Effects(enabled=COMPILED_EFFECTS, params={**recipe.effects.to_dict()["params"], **params})
     a, b = both(ses.theta, ses.actuator, ses.reset, recipe.robot, recipe.friction, eff, recipe.dt)
     assert_same_physics(a, b)
     if "bending_stiffness" in params:
@@ -95,16 +95,19 @@ def test_a_slip_state_that_differs_is_an_output_on_an_edge_to_rounding(session):
     bend_deg=st.floats(0.0, 80.0),
     names=st.sets(st.sampled_from([e for e in COMPILED_EFFECTS if e != "sensor_bias"])),
     seed=st.integers(0, 2**32 - 1),
+    driver=st.sampled_from(["tension", "motion", "elastic"]),
 )
-def test_compiled_pass_matches_on_any_motion(n, frames, bend_deg, names, seed):
-    """Random robots, poses up to 80 deg per axis (turns past pi/2: the atan2 branch), any effects."""
+def test_compiled_pass_matches_on_any_motion(n, frames, bend_deg, names, seed, driver):
+    """Random robots, poses up to 80 deg per axis (turns past pi/2: the atan2 branch), any effects and driver."""
     rng = np.random.default_rng(seed)
     geometry = RobotGeometry(n_modules=n, joint_gap=rng.uniform(0.004, 0.02), hole_radius=rng.uniform(0.004, 0.02))
     theta = np.deg2rad(rng.uniform(-bend_deg, bend_deg, size=(frames, n, 2)))
     actuator = rng.uniform(5.0, 400.0, size=(frames, n, 3))
     reset = rng.random(frames) < 0.2
     law = FrictionLaw(A=(0.1, 0.2, 0.05), B=(0.2, 0.25, 0.1))  # B >= |A|: mu >= 0 on every wrap
-    effects = Effects(enabled=tuple(names), params={"guide_wear": {"guides": {1: 1.7}}})
+    effects = Effects(
+        enabled=tuple(names), params={"guide_wear": {"guides": {1: 1.7}}, "stick_slip": {"driver": driver}}
+    )
     a, b = both(theta, actuator, reset, geometry, law, effects)
     assert_same_physics(a, b, max_sigma_share=1.0 if frames * n < 20 else 0.05)
 

@@ -119,9 +119,7 @@ def test_a_missing_compiler_falls_back_to_torch_with_a_warning(monkeypatch, tmp_
     class Model:  # what PGCHTCStream reads of a fitted PG-CHTC
         cascade_ = _random_cascade(4, True, True)
         n_modules_ = 4
-
-        class geometry_:
-            alpha_0 = 0.1
+        alpha_0_ = 0.1  # its prior's fitted routing wrap
 
     with pytest.warns(RuntimeWarning, match="no C compiler"):
         stream = PGCHTCStream(Model())

@@ -119,16 +119,21 @@ def test_constraint_holds_on_data_that_pushes_against_it():
 
 
 def test_nonsmooth_recovers_a_known_law_when_its_structure_is_right():
-    # The model's structure is the simulator's (gate + play operator, fresh pretension at each
-    # trajectory start).  Load-cell noise is small here because a play operator fed with noisy
-    # inputs ratchets on the noise and biases mu upwards (about 1-4 % at 1 N): an
-    # errors-in-variables effect of the nonsmooth model, documented in tendon_id.calibration.
+    # The model's structure is the simulator's (the dead zone of the recipe's contact, the play operator,
+    # fresh pretension at each trajectory start), and it fits the clearance and the routing wrap too.
+    # Load-cell noise is small here because a play operator fed with noisy inputs ratchets on the
+    # noise and biases mu upwards (about 1-4 % at 1 N): an errors-in-variables effect of the
+    # nonsmooth model, documented in tendon_id.calibration.
     r = load_recipe("snake12-noise-only")
     r = dataclasses.replace(r, session="fresh", sensors=dataclasses.replace(r.sensors, noise_n=0.05))
+    assert r.effects.get("contact").gate == zoo.ContactGate().gate == "dead_zone"
     rec = simulate(r, "posterior-3", effects="contact,stick_slip", frames=2000, seed=3).recording
     m = zoo.make("capstan-nonsmooth").fit(rec)
     truth = np.array(r.friction.A) + np.array(r.friction.B)
     np.testing.assert_allclose(m.mu0_[0], truth, rtol=0.02)
+    # Measured: 0.0803 and 0.0505 rad, from starts of 0.0997 and 0.
+    assert m.alpha_c_ == pytest.approx(r.robot.alpha_c, abs=0.003)
+    assert m.alpha_0_ == pytest.approx(r.robot.alpha_0, abs=0.003)
 
 
 def test_blocks_compose_and_free_parameters_are_calibrated():

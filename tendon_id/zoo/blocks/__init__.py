@@ -12,6 +12,7 @@ from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.blocks.base import BLOCK_TYPES, BLOCKS, EFFECT_BLOCKS, STAGES, Block, HookContext
 from tendon_id.zoo.blocks.exponent import ContactGate, GuideWear, VelocityFriction
+from tendon_id.zoo.blocks.geometric import RoutingWrap
 from tendon_id.zoo.blocks.output import SensorBias, ViscoelasticLag
 from tendon_id.zoo.blocks.slip import BendingStiffness, Hysteresis, SmoothEdge
 from tendon_id.zoo.blocks.wrap import PerTendonWrap
@@ -28,6 +29,7 @@ __all__ = [
     "HookContext",
     "Hysteresis",
     "PerTendonWrap",
+    "RoutingWrap",
     "SensorBias",
     "SmoothEdge",
     "VelocityFriction",
@@ -65,7 +67,8 @@ def compose(blocks) -> tuple[Block, ...]:
     """The blocks of one model (blocks, names or dicts), checked to compose.
 
     A block needs the blocks of the effects it refines; a model has at most one propagation block
-    (hysteresis) and one that refines it, at most one wrap block, and each block once.
+    (hysteresis) and one that refines it, at most one wrap block, and each block once (so one
+    routing block).
 
     Raises
     ------

@@ -9,6 +9,7 @@ every block of a stage has the same hook (``values`` holds the block's parameter
 stage               hook                                       what it changes
 ==================  =========================================  ==============================
 ``wrap``            ``wrap(alpha, ctx, values) -> alpha``      the wrap the law sees
+``routing``         ``routing(alpha, ctx, values) -> alpha``   the routing wrap added to it
 ``exponent``        ``exponent(phi, ctx, values) -> phi``      the capstan exponent; linear in
                                                                ``phi`` (a friction multiplier)
 ``edges``           ``edges(lo, hi, ctx, values) -> lo, hi``   a guide's slip edges
@@ -18,16 +19,23 @@ stage               hook                                       what it changes
 ``sensor``          ``sensor(t, ctx, values) -> t``            the terminal reading [N]
 ==================  =========================================  ==============================
 
-The ``wrap`` and ``exponent`` stages act on arrays over all guides, shape
+The ``wrap``, ``routing`` and ``exponent`` stages act on arrays over all guides, shape
 ``(T, K, S, m)`` (or broadcastable: ``(T, K, 1, 1)`` when every set and tendon sees
 the backbone wrap); the three per-guide stages see one guide, ``ctx.guide``, and
-arrays of shape ``(T, S_g, m)`` for the sets that pass it.
+arrays of shape ``(T, S_g, m)`` for the sets that pass it.  The wrap stage starts from the
+joints' part of the backbone wrap (``|theta_k| / 2 + |theta_{k+1}| / 2``); the routing wrap,
+which no user measures, is a fitted parameter of the routing stage
+(:class:`~tendon_id.zoo.blocks.geometric.RoutingWrap`, in every capstan model).
 
 Each block declares the simulator effect it models (:attr:`Block.effect`, :doc:`/guide/simulator`),
 its free parameters with bounds and neutral initial values (a model with the block
 added starts from its base model's fit), and a probe: a typical magnitude of each
 parameter, from which the sim-to-real diagnosis builds the block's signature
-regressor (:meth:`Block.signature`).  Subclasses that set ``name`` register
+regressor (:meth:`Block.signature`).  A *geometric* block's parameters describe the robot
+(a clearance, a routing wrap): the law problem stays linear at any fixed value of them, so
+calibration profiles them out (:mod:`tendon_id.calibration.law_geometry`), and their
+starting values may come from the robot's measured sizes (:meth:`Block.started_from`).
+Subclasses that set ``name`` register
 themselves in the snake chain's registry, :data:`BLOCKS` (the declarations every family's
 blocks share are :class:`~tendon_id.family.blocks.EffectBlock`'s).
 """
@@ -42,7 +50,7 @@ from numpy.typing import NDArray
 
 from tendon_id.family.blocks import BlockRegistry, EffectBlock
 
-STAGES = ("wrap", "exponent", "edges", "propagate", "guide_output", "sensor")
+STAGES = ("wrap", "routing", "exponent", "edges", "propagate", "guide_output", "sensor")
 
 #: The snake chain's blocks, filled as each block class is defined.
 BLOCKS = BlockRegistry("snake")
@@ -63,7 +71,7 @@ class HookContext:
     sets, tendons : ndarray of int
         0-based set and tendon indices being propagated.
     alpha : ndarray, optional
-        Wrap after the ``wrap`` stage [rad], shape ``(T, K, S, m)`` or ``(T, K, 1, 1)``.
+        Wrap after the ``wrap`` and ``routing`` stages [rad], shape ``(T, K, S, m)`` or ``(T, K, 1, 1)``.
     guide : int, optional
         0-based guide index, in the per-guide stages.
     active : ndarray of bool, optional
@@ -116,12 +124,16 @@ class Block(EffectBlock):
         Effects the block refines (class attribute): a model needs their blocks too, and the
         diagnosis tries it once they are in.  A refining ``propagate`` block sets the step
         in place of the block it refines.
+    geometric : bool
+        Its parameters describe the robot's geometry and keep the law problem linear at any
+        fixed value (class attribute): calibration profiles them out.
     """
 
     registry: ClassVar[BlockRegistry] = BLOCKS
     stages: ClassVar[tuple[str, ...]] = STAGES
     stage: ClassVar[str] = "exponent"
     per_tendon: ClassVar[bool] = False
+    geometric: ClassVar[bool] = False
     param_names: tuple[str, ...] = ()
     bounds: dict = field(default_factory=dict)
     probe: dict = field(default_factory=dict, compare=False, repr=False)
@@ -143,6 +155,14 @@ class Block(EffectBlock):
     def initial(self) -> dict[str, float]:
         """Starting values of the block's parameters."""
         return {p: float(getattr(self, p)) for p in self.param_names}
+
+    def started_from(self, geometry) -> Block:
+        """This block with the starting values the robot's measured sizes give (default: itself).
+
+        ``geometry`` is a :class:`~tendon_id.geometry.RobotGeometry`; a block reads only what a
+        user measures on the robot, never the simulator's truth (``alpha_0``, ``alpha_c``).
+        """
+        return self
 
     def neutral(self) -> dict[str, float]:
         """The parameters' values that switch the effect off: the class's defaults."""

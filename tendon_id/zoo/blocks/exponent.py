@@ -2,31 +2,81 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from friction_models import guide_wear_factors, hard_contact_gate
+from friction_models import dead_zone_wrap, guide_wear_factors, hard_contact_gate
+from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import sliding_speed
 from tendon_id.zoo.blocks.base import Block
+from tendon_id.zoo.blocks.geometric import CLEARANCE_BOUNDS, CLEARANCE_START, clearance_start
 
 #: Most worn guides a localised wear candidate names.
 MAX_WORN_GUIDES = 3
+#: How the clearance acts (the simulator's ``contact.gate``, :doc:`/guide/simulator`).
+GATES = ("dead_zone", "hard")
 
 
 @dataclass(frozen=True)
 class ContactGate(Block):
-    """Contact gate ``beta_k = 1[alpha_k > alpha_c]`` with the robot's clearance angle (paper Eq. (6))."""
+    """Contact through a hole's clearance ``alpha_c`` [rad], fitted (paper Eq. (6), ref. [10]).
+
+    ``gate="dead_zone"`` (default): the tendon turns freely through the clearance and presses on
+    the wall only by the rest of its turn, ``phi = mu(alpha) max(alpha - alpha_c, 0)``
+    (:func:`friction_models.dead_zone_wrap`).  ``gate="hard"``: the paper's gate on the whole
+    wrap, ``phi = mu(alpha) alpha 1[alpha > alpha_c]``.  Either is a friction multiplier,
+    ``max(alpha - alpha_c, 0) / alpha`` or ``1[alpha > alpha_c]``, so a fixed clearance keeps
+    the law problem linear; the clearance itself is fitted within :data:`CLEARANCE_BOUNDS`
+    (:mod:`tendon_id.zoo.blocks.geometric`).
+
+    Parameters
+    ----------
+    alpha_c : float, optional
+        Clearance angle [rad]: the start of the fit, or the value held with ``fixed=True``.
+        None (default): from the robot's measured sizes
+        (:func:`~tendon_id.zoo.blocks.geometric.clearance_start`), never from its metadata's
+        ``alpha_c``, which is the simulator's truth.
+    gate : {"dead_zone", "hard"}
+        How the clearance acts (a setting, not fitted).
+    """
 
     name = "contact"
     effect = "contact"
     stage = "exponent"
+    geometric = True
     regressor = "friction of the guides inside the clearance: residual at small wraps"
+    alpha_c: float | None = None
+    gate: str = "dead_zone"
+    param_names: tuple[str, ...] = ("alpha_c",)
+    bounds: dict = field(default_factory=lambda: {"alpha_c": CLEARANCE_BOUNDS})
+    probe: dict = field(default_factory=lambda: {"alpha_c": CLEARANCE_START}, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        check_choice("contact.gate", self.gate, GATES, what="contact gate")
+
+    def initial(self) -> dict[str, float]:
+        return {"alpha_c": CLEARANCE_START if self.alpha_c is None else float(self.alpha_c)}
+
+    def neutral(self) -> dict[str, float]:
+        # No clearance: every wrap presses on the wall, which is the capstan without a gate.
+        return {"alpha_c": 0.0}
+
+    def settings(self) -> dict:
+        return {"gate": self.gate}
+
+    def started_from(self, geometry) -> ContactGate:
+        return self if self.alpha_c is not None else replace(self, alpha_c=clearance_start(geometry))
 
     def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
-        return phi * hard_contact_gate(ctx.alpha, ctx.inputs.geometry.alpha_c)
+        alpha = ctx.alpha
+        alpha_c = max(float(values["alpha_c"]), 0.0)  # an optimiser's rounding below the bound is no clearance
+        if self.gate == "hard":
+            return phi * hard_contact_gate(alpha, alpha_c)
+        share = np.divide(dead_zone_wrap(alpha, alpha_c), alpha, out=np.zeros(np.shape(alpha)), where=alpha > 0)
+        return phi * share
 
 
 @dataclass(frozen=True)

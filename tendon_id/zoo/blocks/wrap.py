@@ -13,13 +13,16 @@ from tendon_id.zoo.blocks.base import Block
 
 @dataclass(frozen=True)
 class PerTendonWrap(Block):
-    """Each tendon's own wrap instead of the backbone angle (:doc:`/guide/geometry`–5 ``per_tendon_wrap``).
+    """Each tendon's own wrap instead of the backbone angle (:doc:`/guide/geometry`, ``per_tendon_wrap``).
+
+    The turns of the hole points without the routing wrap, which the routing stage adds
+    (:class:`~tendon_id.zoo.blocks.geometric.RoutingWrap`, fitted).
 
     Parameters
     ----------
     model : {"exact", "projected"}
         Forward kinematics of the hole points (:func:`tendon_id.geometry.exact_wrap`) or
-        the small-angle projected bends (:func:`tendon_id.geometry.projected_wrap`).
+        their expansion to second order in the bends (:func:`tendon_id.geometry.projected_wrap`).
     """
 
     name = "per_tendon_wrap"
@@ -40,10 +43,10 @@ class PerTendonWrap(Block):
         inputs, geometry = ctx.inputs, ctx.inputs.geometry
 
         def compute():
-            psi = tendon_azimuths(geometry)
-            if self.model == "exact":
-                return exact_wrap(inputs.angles, geometry, psi)
-            return projected_wrap(inputs.angles, psi, geometry.alpha_0)
+            # alpha_0 = 0: the robot's routing wrap in its metadata is the simulator's truth; the
+            # model's own, fitted, is added at the routing stage.
+            wraps = exact_wrap if self.model == "exact" else projected_wrap
+            return wraps(inputs.angles, geometry, tendon_azimuths(geometry), alpha_0=0.0)
 
-        full = inputs.memo(f"{self.model}_wrap", compute)  # (T, K, N, 3)
+        full = inputs.memo(f"{self.model}_turns", compute)  # (T, K, N, 3)
         return full[:, :, ctx.sets][..., ctx.tendons]

@@ -107,7 +107,8 @@ def strata_masks(inputs) -> list[tuple[str, str, NDArray]]:
         The held-out data.
     """
     out: list[tuple[str, str, NDArray]] = []
-    wrap = inputs.wrap  # (T, K)
+    # The joints' part of the wrap, what the data show: a routing wrap, fitted or not, only shifts it.
+    wrap = inputs.bend_wrap  # (T, K)
     for k in range(wrap.shape[1]):
         w = wrap[:, k]
         top = np.quantile(w, 0.75)

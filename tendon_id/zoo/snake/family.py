@@ -105,7 +105,11 @@ class SnakeFamily(Family):
         return names_of(CapstanModel)
 
     def calibration_doc(self, model, recordings) -> dict:
-        """``{"model", "tying", "A", "B", "mu0", "terminal": M}``; tied: 3 numbers each, per-guide: N-1 lists of 3."""
+        """``{"model", "tying", "A", "B", "mu0", "terminal": M, ..., "alpha_0", "alpha_c"}``.
+
+        ``A``, ``B``, ``mu0``: tied, 3 numbers each, per-guide, N-1 lists of 3.  ``alpha_0`` is the
+        fitted routing wrap [rad], ``alpha_c`` the fitted clearance [rad] (None without contact).
+        """
 
         def shape(a: np.ndarray):
             return a[0].tolist() if model.tying == "tied" else a.tolist()
@@ -119,7 +123,14 @@ class SnakeFamily(Family):
             "terminal": model.score(recordings)["terminal"],
             "calibration": model.calibration_,
             "frames": int(sum(r.n_frames for r in recordings)),
+            "alpha_0": model.alpha_0_,
+            "alpha_c": model.alpha_c_,
         }
+
+    def calibration_lines(self, model, doc) -> list[str]:
+        """The fitted geometry, which a user could not have given: the routing wrap and the clearance."""
+        clearance = "" if doc["alpha_c"] is None else f", clearance alpha_c = {doc['alpha_c']:.4f} rad"
+        return [f"fitted geometry: routing wrap alpha_0 = {doc['alpha_0']:.4f} rad{clearance}"]
 
     def score_lines(self, model, score, recording, name) -> list[str]:
         t = score["terminal"]

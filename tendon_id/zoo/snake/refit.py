@@ -72,6 +72,7 @@ def refit(
         ``mu[g]:i``), then ``block:param``; ``sse`` is the sum of squared log errors [-].
     """
     t0 = time.perf_counter()
+    structure = structure.started_from(inputs.geometry)  # a candidate's clearance starts from the robot's sizes
     layout = LawLayout(structure.mu_law, A.shape[0])
     p = layout.size
     free = structure.free_parameters()

@@ -1,0 +1,193 @@
+"""The elastic tendon chain on the composed route: the reference of the compiled pass (:doc:`/guide/simulator`).
+
+With ``stick_slip.driver = "elastic"`` every tendon is an elastic chain through its guides
+(:mod:`friction_models.elastic_chain`): its segments stretch with their tension, their path
+lengths follow the joints through the exact hole-point geometry, and each guide holds a
+capstan band.  The compiled pass (:mod:`tendon_id.sim.transmission_kernel`) runs the same
+solver, compiled; this module runs it as written, one tendon at a time, for the tests.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from friction_models import SLACK_FLOOR_N
+from friction_models.elastic_chain import elastic_chain, elastic_chain_frame
+from tendon_id.geometry import RobotGeometry, crossing_length, joint_rotation, tendon_azimuths
+from tendon_id.sim.effects import Effects
+from tendon_id.sim.transmission_kernel import COMPILED, segment_length
+
+try:  # pragma: no cover - which branch runs depends on the install
+    import numba
+except ImportError:  # pragma: no cover
+    numba = None
+
+__all__ = ["ElasticState", "segment_path_lengths", "transmit_elastic"]
+
+
+def segment_path_lengths(theta: NDArray, geometry: RobotGeometry) -> NDArray:
+    """Changing part of each tendon segment's path [m], shape (T, N-1, N, 3).
+
+    ``[t, g, j, i]``: the straight segment across joint ``g + 2`` (1-based) of tendon ``i`` of set
+    ``j``, which lies between guides ``g + 1`` and ``g + 2``; the rest of the segment runs along a
+    link and does not change length.
+    """
+    psi = tendon_azimuths(geometry)
+    ux, uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
+    R = joint_rotation(np.asarray(theta, dtype=float)[:, 1:])  # joints 2..N
+    return crossing_length(R[:, :, None, None], ux, uy, 0.5 * geometry.joint_gap)
+
+
+def transmit_elastic(theta, actuator, reset, geometry: RobotGeometry, effects: Effects, dt, phi, loss):
+    """The elastic chains of every set and tendon, on the composed route (the reference; loops in Python).
+
+    Parameters
+    ----------
+    theta, actuator, reset, geometry, effects, dt :
+        As for :func:`~tendon_id.sim.transmission.transmit`.
+    phi, loss : ndarray, shape (T, N-1, N, 3)
+        Capstan exponent [-] and tension-independent loss [N] of every guide, set and tendon
+        (the exponent-stage blocks, :func:`~tendon_id.sim.transmission.guide_terms`).
+
+    Returns
+    -------
+    chain : ndarray, shape (T, N, N, 3)
+        ``T[k, j, i]`` [N], NaN off the path.
+    sigma : ndarray of int8, shape (T, N-1, N, 3)
+    """
+    n, n_frames = geometry.n_modules, theta.shape[0]
+    reset = np.array(reset, dtype=bool)
+    reset[0] = True
+    visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
+    length = segment_path_lengths(theta, geometry)
+    d_length = np.zeros_like(length)
+    d_length[1:] = length[1:] - length[:-1]
+    d_length[reset] = 0.0
+    k = np.full(n - 1, float(effects.get("stick_slip").EA) / segment_length(geometry))
+    chain = np.full((n_frames, n, n, 3), np.nan)
+    sigma = np.zeros((n_frames, n - 1, n, 3), dtype=np.int8)
+    chain[:, 0] = actuator
+    for j in range(1, n):
+        for i in range(3):
+            tension, sg = elastic_chain(
+                actuator[:, j, i],
+                d_length[:, :j, j, i],
+                phi[:, :j, j, i],
+                k[:j],
+                reset,
+                loss=loss[:, :j, j, i],
+                dt=dt,
+                tau=visco.tau_v if visco is not None else 1.0,
+                kappa=visco.kappa if visco is not None else 0.0,
+                floor=SLACK_FLOOR_N,
+            )
+            chain[:, 1 : j + 1, j, i] = tension
+            sigma[:, :j, j, i] = sg
+    return chain, sigma
+
+
+def _step(actuator, phi, loss, d_length, tension, branch, first, k_seg, a_lag, kappa, floor, sigma):  # pragma: no cover
+    # One instant of every chain of a batch (the closed loop's plant): the compiled pass's elastic
+    # branch without its frame loop.  tension/branch: (B, N-1, N, 3) state, updated in place.
+    batch, n = actuator.shape[0], actuator.shape[1]
+    m = n - 1
+    cc, ph, ls, kk, cp, em, ep, out = (
+        np.empty(m),
+        np.empty(m),
+        np.empty(m),
+        np.full(m, k_seg),
+        np.empty(m),
+        np.empty(m),
+        np.empty(m),
+        np.empty(m),
+    )
+    sg = np.zeros(m, dtype=np.int8)
+    for b in range(batch):
+        for j in range(1, n):
+            for i in range(3):
+                if first:
+                    x = actuator[b, j, i]
+                    for q in range(j):
+                        x = max(x * math.exp(-phi[b, q, j, i]) - loss[b, q, j, i], floor)
+                        out[q], sg[q], branch[b, q, j, i] = x, 1, 0.0
+                else:
+                    for q in range(j):
+                        cc[q] = tension[b, q, j, i] + k_seg * d_length[b, q, j, i] - (1.0 - a_lag) * branch[b, q, j, i]
+                        ph[q], ls[q] = phi[b, q, j, i], loss[b, q, j, i]
+                    elastic_chain_frame(
+                        actuator[b, j, i],
+                        cc[:j],
+                        ph[:j],
+                        ls[:j],
+                        kk[:j],
+                        floor,
+                        cp[:j],
+                        em[:j],
+                        ep[:j],
+                        out[:j],
+                        sg[:j],
+                    )
+                    for q in range(j):
+                        branch[b, q, j, i] = a_lag * branch[b, q, j, i] + kappa * (
+                            out[q] - cc[q] + k_seg * d_length[b, q, j, i]
+                        )
+                for q in range(j):
+                    tension[b, q, j, i] = out[q]
+                    sigma[b, q, j, i] = sg[q]
+
+
+if COMPILED:
+    elastic_chain_frame = numba.njit(cache=True, inline="always")(elastic_chain_frame)
+    _step = numba.njit(cache=True, nogil=True)(_step)
+
+
+class ElasticState:
+    """The elastic chains of a batch of robots, stepped one instant at a time (the closed loop's plant).
+
+    Parameters
+    ----------
+    geometry, effects :
+        The robot and the recipe's effects (``stick_slip.driver = "elastic"``).
+    dt : float
+        Time between steps [s] (the viscoelastic tendon's step).
+    batch : int
+        Number of robots.
+    """
+
+    def __init__(self, geometry: RobotGeometry, effects: Effects, dt: float, batch: int):
+        n = geometry.n_modules
+        visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
+        self.geometry = geometry
+        self.k_seg = float(effects.get("stick_slip").EA) / segment_length(geometry)
+        self.a_lag = math.exp(-dt / visco.tau_v) if visco is not None else 1.0
+        self.kappa = float(visco.kappa) if visco is not None else 0.0
+        self.tension = np.zeros((batch, n - 1, n, 3))
+        self.branch = np.zeros((batch, n - 1, n, 3))
+        self.sigma = np.zeros((batch, n - 1, n, 3), dtype=np.int8)
+        self.length = None
+
+    def step(self, theta: NDArray, actuator: NDArray, phi: NDArray, loss: NDArray | None) -> NDArray:
+        """Advance one instant; returns the segment tensions ``T[k+1, j, i]`` (B, N-1, N, 3) [N] (0 off the path)."""
+        length = segment_path_lengths(theta, self.geometry)
+        first = self.length is None
+        d_length = np.zeros_like(length) if first else length - self.length
+        self.length = length
+        loss = np.zeros(phi.shape) if loss is None else np.ascontiguousarray(np.broadcast_to(loss, phi.shape))
+        _step(
+            np.ascontiguousarray(actuator, dtype=float),
+            np.ascontiguousarray(phi, dtype=float),
+            loss,
+            d_length,
+            self.tension,
+            self.branch,
+            first,
+            self.k_seg,
+            self.a_lag,
+            self.kappa,
+            float(SLACK_FLOOR_N),
+            self.sigma,
+        )
+        return self.tension
