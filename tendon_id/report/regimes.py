@@ -112,7 +112,9 @@ def write_regimes_page(result: dict, path: str | os.PathLike) -> Path:
         rows,
     )
     guards = [
-        f"{c['setting']}, {c['session']}: {k} ({g['cascade_rmse']:.3g} N against {g['prior_rmse']:.3g} N)"
+        f"{c['setting']}, {c['session']}: {k} ({g['cascade_rmse']:.3g} N against {g['prior_rmse']:.3g} N"
+        + "".join(f"; {kind} {r:.2f}x" for kind, r in worse_kinds(g).items())
+        + ")"
         for c in result["cells"]
         for k, m in c["methods"].items()
         if (g := m.get("guard")) and (g.get("worse") or worse_kinds(g))
@@ -126,7 +128,8 @@ def write_regimes_page(result: dict, path: str | os.PathLike) -> Path:
             tone="warning",
         )
         page.paragraph(
-            "The prior guard fired (validation RMSE worse than the calibrated prior's) in: " + "; ".join(guards) + ".",
+            "The prior guard fired (validation RMSE worse than the calibrated prior's, pooled or on one kind "
+            "of motion, which is named) in: " + "; ".join(guards) + ".",
             cls="warning",
         )
     f = result["cells"][0]["frames"] if result["cells"] else {}

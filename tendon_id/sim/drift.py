@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from friction_models import run_in_wear_factor
 from tendon_id.geometry import RobotGeometry, backward_rate, sliding_speed_at, tendon_azimuths
-from tendon_id.sim.effects import FrictionDrift
+from tendon_id.sim.sensor_effects import FrictionDrift
 
 __all__ = ["drift_factors", "guide_sliding_distance"]
 

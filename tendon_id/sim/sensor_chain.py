@@ -23,7 +23,8 @@ from numpy.typing import NDArray
 
 from friction_models import first_order_lowpass, gain_offset, shifted_read
 from tendon_id.errors import ConfigError
-from tendon_id.sim.effects import ActuatorCells, Effects
+from tendon_id.sim.effects import Effects
+from tendon_id.sim.sensor_effects import ActuatorCells
 
 __all__ = ["SENSOR_CHAIN_EFFECTS", "SensorSignals", "cell_errors", "sensor_signals"]
 

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.errors import ConfigError
-from tendon_id.sim.effects import SensorBias
+from tendon_id.sim.sensor_effects import SensorBias
 
 
 @dataclass(frozen=True)
