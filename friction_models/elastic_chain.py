@@ -62,30 +62,52 @@ __all__ = ["ELASTIC_TOL_N", "elastic_chain", "elastic_chain_frame"]
 ELASTIC_TOL_N = 1e-9
 
 
-def elastic_chain_frame(t_in, c, phi, loss, k, floor, cp, em, ep, out, sigma):  # pragma: no cover - compiled
-    """Tensions of one tendon's segments ``1..n`` in one frame, given its trial tensions.
+def elastic_chain_frame(
+    t_in, tension, branch, d_length, phi, loss, k, first, a_lag, kappa, floor, c, cp, em, ep, sigma
+):
+    """One frame of one tendon: its segments' tensions and viscoelastic branches, updated in place.
+
+    The whole step of the module docstring: on a tendon's first frame it starts taut (every guide
+    on its forward-slip edge); after it, the trial tensions ``c_s``, the equilibrium, and the
+    standard linear solid's branch.  One function with no calls, so that numba compiles it whole
+    (:mod:`tendon_id.sim.transmission_kernel`, :mod:`tendon_id.sim.elastic`).
 
     Parameters
     ----------
     t_in : float
         Actuator tension ``T_0`` [N].
-    c : ndarray, shape (n,)
-        Trial tensions ``c_s`` [N]: the segments' tensions if no guide let material through.
+    tension : ndarray, shape (n,)
+        Segment tensions ``T_1..T_n`` [N]: the last frame's on entry, this frame's on return.
+    branch : ndarray, shape (n,)
+        Force of each segment's Maxwell branch [N] (0 for an elastic tendon), updated likewise.
+    d_length : ndarray, shape (n,)
+        Change of each segment's path length since the last frame [m].
     phi : ndarray, shape (n,)
         Capstan exponents of guides ``1..n`` [-], ``>= 0``.
     loss : ndarray, shape (n,)
         Tension-independent loss widening each band [N] (bending stiffness; 0 for none).
     k : ndarray, shape (n,)
         Segment stiffnesses [N/m].
+    first : bool
+        The tendon's first frame (a reset): start taut, ignore the state.
+    a_lag, kappa : float
+        ``exp(-dt / tau)`` and the relaxing fraction of the standard linear solid [-].
     floor : float
         Lowest tension a band's lower edge reaches [N] (a cable does not push).
-    cp, em, ep : ndarray, shape (n,)
+    c, cp, em, ep : ndarray, shape (n,)
         Scratch space.
-    out : ndarray, shape (n,)
-        Receives the tensions [N].
     sigma : ndarray of int8, shape (n,)
         Receives each guide's slip state (+1 forward, 0 stick, -1 reverse).
     """
+    n = tension.shape[0]
+    if first:
+        x = t_in
+        for s in range(n):
+            x = max(x * math.exp(-phi[s]) - loss[s], floor)
+            tension[s], branch[s], sigma[s] = x, 0.0, 1
+        return
+    for s in range(n):  # the trial tensions: no material through any guide, the branches relaxing
+        c[s] = tension[s] + k[s] * d_length[s] - (1.0 - a_lag) * branch[s]
     n = c.shape[0]
     for r in range(n):
         ep[r] = math.exp(phi[r])
@@ -129,7 +151,9 @@ def elastic_chain_frame(t_in, c, phi, loss, k, floor, cp, em, ep, out, sigma):  
         # On an edge to within the solver's tolerance is slip: the root c'_s is only that exact.
         tol = max(ELASTIC_TOL_N, 1e-12 * hi)
         sigma[s] = 1 if y <= lo + tol else (-1 if y >= hi - tol else 0)
-        out[s] = y
+        # The branch takes kappa k times the change of the segment's stretch, (T_s - c_s) / k_s + dL_s.
+        branch[s] = a_lag * branch[s] + kappa * (y - c[s] + k[s] * d_length[s])
+        tension[s] = y
         x = y
 
 
@@ -181,21 +205,13 @@ def elastic_chain(
     n_frames, n = phi.shape
     k = np.asarray(stiffness, dtype=float)
     loss = np.zeros((n_frames, n)) if loss is None else np.asarray(loss, dtype=float)
-    tension, sigma = np.empty((n_frames, n)), np.zeros((n_frames, n), dtype=np.int8)
-    prev, branch, c = np.zeros(n), np.zeros(n), np.empty(n)
-    cp, em, ep, out, sg = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.zeros(n, np.int8)
+    out, sigma = np.empty((n_frames, n)), np.zeros((n_frames, n), dtype=np.int8)
+    tension, branch, scratch = np.zeros(n), np.zeros(n), np.empty((4, n))
     a = math.exp(-dt / tau)
     for t in range(n_frames):
-        if t == 0 or reset[t]:
-            x = t_in[t]
-            for s in range(n):  # taut: every guide on its forward-slip edge
-                x = max(x * math.exp(-phi[t, s]) - loss[t, s], floor)
-                prev[s], branch[s] = x, 0.0
-            tension[t], sigma[t] = prev, 1
-            continue
-        c[:] = prev + k * d_length[t] - (1.0 - a) * branch
-        elastic_chain_frame(t_in[t], c, phi[t], loss[t], k, floor, cp, em, ep, out, sg)
-        branch[:] = a * branch + kappa * (out - c + k * d_length[t])  # kappa k times the stretch's change
-        prev[:] = out
-        tension[t], sigma[t] = out, sg
-    return tension, sigma
+        first = bool(t == 0 or reset[t])
+        elastic_chain_frame(
+            t_in[t], tension, branch, d_length[t], phi[t], loss[t], k, first, a, kappa, floor, *scratch, sigma[t]
+        )
+        out[t] = tension
+    return out, sigma

@@ -23,7 +23,7 @@ from tendon_id.closed_loop import ORACLE, STEP_TESTS, in_loop, joint_torque, loo
 from tendon_id.datasets import load_recipe
 from tendon_id.geometry import tendon_azimuths
 from tendon_id.progress import progress_bar
-from tendon_id.zoo.guard import quiet_guard, worse_kinds
+from tendon_id.zoo.guard import guard_fired, quiet_guard, worse_kinds_text
 
 __all__ = ["PAPER_TABLE3", "TABLE3_ESTIMATORS", "format_table3", "table3"]
 
@@ -203,9 +203,8 @@ def format_table3(result: dict) -> str:
             f"{r['why']['stick_fraction']:.2f}"
         )
     for g in result.get("guards", []):
-        kinds = worse_kinds(g)
-        if g.get("worse") or kinds:
-            where = "; worse on " + ", ".join(f"{k} {r:.2f}x" for k, r in kinds.items()) if kinds else ""
+        if guard_fired(g):
+            where = f"; worse on {worse_kinds_text(g)}" if worse_kinds_text(g) else ""
             lines.append(
                 f"guard: {g['method']} validation RMSE {g['cascade_rmse']:.1f} N against its prior's "
                 f"{g['prior_rmse']:.1f} N{where}"

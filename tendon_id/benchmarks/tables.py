@@ -17,7 +17,7 @@ from tendon_id.benchmarks.splits import TEST_PROTOCOLS, paper_split, score_test
 from tendon_id.datasets import load
 from tendon_id.progress import progress_bar
 from tendon_id.zoo import make
-from tendon_id.zoo.guard import quiet_guard, worse_kinds
+from tendon_id.zoo.guard import guard_fired, quiet_guard, worse_kinds_text
 
 #: Rows of Table I (single passage) and Table II (cascade), in the paper's order.
 TABLE1_METHODS = (
@@ -201,9 +201,8 @@ def format_rows(result: dict) -> str:
             f"{t['max_error']:8.3f} | {js}"
         )
     for g in result.get("guards", []):
-        kinds = worse_kinds(g)
-        if g["worse"] or kinds:
-            where = ", ".join(f"{k} {r:.2f}x" for k, r in kinds.items())
+        if guard_fired(g):
+            where = worse_kinds_text(g)
             lines.append(
                 f"guard: {g['method']} (split {g['split']}) was {g['ratio']:.2f}x its prior {g['prior']} on validation"
                 + (f"; worse on {where}" if where else "")

@@ -9,7 +9,7 @@ import numpy as np
 
 from tendon_id.report.closed_loop_lead import TERMS, lead_sentences
 from tendon_id.report.html import HtmlPage, pyplot
-from tendon_id.zoo.guard import worse_kinds
+from tendon_id.zoo.guard import guard_fired
 
 #: The paper's colours (Fig. 6: PG-CHTC blue, the Capstan baseline red); the others muted.
 COLOURS = {
@@ -137,7 +137,7 @@ def write_table3_page(
         "of the stepped sets' guide passages in stick.",
         cls="note",
     )
-    guards = [g for g in result.get("guards", []) if g.get("worse") or worse_kinds(g)]
+    guards = [g for g in result.get("guards", []) if guard_fired(g)]
     if guards:
         page.paragraph(
             "The prior guard fired for: "

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from tendon_id.report.html import HtmlPage, pyplot
-from tendon_id.zoo.guard import worse_kinds
+from tendon_id.zoo.guard import guard_fired, worse_kinds_text
 
 #: The learned models of the map, in column order (the physics baseline is the denominator).
 LEARNED = ("pg-chtc", "pg-chtc-ns")
@@ -113,11 +113,11 @@ def write_regimes_page(result: dict, path: str | os.PathLike) -> Path:
     )
     guards = [
         f"{c['setting']}, {c['session']}: {k} ({g['cascade_rmse']:.3g} N against {g['prior_rmse']:.3g} N"
-        + "".join(f"; {kind} {r:.2f}x" for kind, r in worse_kinds(g).items())
+        + (f"; worse on {worse_kinds_text(g)}" if worse_kinds_text(g) else "")
         + ")"
         for c in result["cells"]
         for k, m in c["methods"].items()
-        if (g := m.get("guard")) and (g.get("worse") or worse_kinds(g))
+        if (g := m.get("guard")) and guard_fired(g)
     ]
     if guards:
         n_cells = len(result["cells"]) * len(LEARNED)

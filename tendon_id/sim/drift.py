@@ -16,7 +16,7 @@ from friction_models import run_in_wear_factor
 from tendon_id.geometry import RobotGeometry, backward_rate, sliding_speed_at, tendon_azimuths
 from tendon_id.sim.sensor_effects import FrictionDrift
 
-__all__ = ["drift_factors", "guide_sliding_distance"]
+__all__ = ["drift_at", "drift_factors", "guide_sliding_distance", "guide_sliding_speed"]
 
 
 def guide_sliding_distance(theta: NDArray, reset: NDArray, geometry: RobotGeometry, dt: float) -> NDArray[np.float64]:
@@ -46,12 +46,34 @@ def guide_sliding_distance(theta: NDArray, reset: NDArray, geometry: RobotGeomet
     reset = np.asarray(reset, dtype=bool)
     if reset.shape != theta.shape[:1]:
         raise ValueError(f"reset needs one flag per frame, shape ({theta.shape[0]},), got {reset.shape}")
+    speed = guide_sliding_speed(backward_rate(np.cumsum(theta, axis=1), reset, dt), geometry)
+    return np.cumsum(speed, axis=0) * dt
+
+
+def guide_sliding_speed(cum_rate: NDArray, geometry: RobotGeometry) -> NDArray[np.float64]:
+    """Mean sliding speed [m/s] of the tendons through each guide, shape (T, N-1).
+
+    Parameters
+    ----------
+    cum_rate : ndarray, shape (T, N, 2)
+        Rate of the running sum of the joint angles over the joints [rad/s]
+        (:func:`tendon_id.geometry.backward_rate` of ``cumsum(theta, axis=1)``); ``T`` may be
+        frames or, for one step of the closed loop, a batch of robots.
+    geometry : RobotGeometry
+    """
+    n = geometry.n_modules
     psi = tendon_azimuths(geometry)
-    cum_rate = backward_rate(np.cumsum(theta, axis=1), reset, dt)
-    speed = np.empty((theta.shape[0], n - 1))
+    speed = np.empty((cum_rate.shape[0], n - 1))
     for g in range(n - 1):  # guide by guide: memory stays at (T, sets, 3)
         speed[:, g] = sliding_speed_at(cum_rate, g, psi, geometry.hole_radius).mean(axis=(1, 2))
-    return np.cumsum(speed, axis=0) * dt
+    return speed
+
+
+def drift_at(slid: NDArray, effect: FrictionDrift) -> NDArray[np.float64]:
+    """Friction multiplier [-] of guides that have slid ``slid`` [m] in this session (before: ``prior_sliding_m``)."""
+    return run_in_wear_factor(
+        slid + effect.prior_sliding_m, effect.run_in_drop, effect.run_in_length_m, effect.wear_rate_per_m
+    )
 
 
 def drift_factors(
@@ -76,5 +98,4 @@ def drift_factors(
     dt : float
         Sample period [s].
     """
-    s = guide_sliding_distance(theta, reset, geometry, dt) + effect.prior_sliding_m
-    return run_in_wear_factor(s, effect.run_in_drop, effect.run_in_length_m, effect.wear_rate_per_m)
+    return drift_at(guide_sliding_distance(theta, reset, geometry, dt), effect)

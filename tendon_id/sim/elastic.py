@@ -15,10 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from friction_models import SLACK_FLOOR_N
-from friction_models.elastic_chain import elastic_chain, elastic_chain_frame
+from friction_models.elastic_chain import elastic_chain
 from tendon_id.geometry import RobotGeometry, crossing_length, joint_rotation, tendon_azimuths
 from tendon_id.sim.effects import Effects
-from tendon_id.sim.transmission_kernel import COMPILED, segment_length
+from tendon_id.sim.transmission_kernel import COMPILED, elastic_chain_frame, segment_length
 
 try:  # pragma: no cover - which branch runs depends on the install
     import numba
@@ -91,56 +91,22 @@ def transmit_elastic(theta, actuator, reset, geometry: RobotGeometry, effects: E
 
 def _step(actuator, phi, loss, d_length, tension, branch, first, k_seg, a_lag, kappa, floor, sigma):  # pragma: no cover
     # One instant of every chain of a batch (the closed loop's plant): the compiled pass's elastic
-    # branch without its frame loop.  tension/branch: (B, N-1, N, 3) state, updated in place.
+    # branch without its frame loop.  tension/branch/sigma: (B, N-1, N, 3) state, updated in place.
     batch, n = actuator.shape[0], actuator.shape[1]
-    m = n - 1
-    cc, ph, ls, kk, cp, em, ep, out = (
-        np.empty(m),
-        np.empty(m),
-        np.empty(m),
-        np.full(m, k_seg),
-        np.empty(m),
-        np.empty(m),
-        np.empty(m),
-        np.empty(m),
-    )
-    sg = np.zeros(m, dtype=np.int8)
+    scratch = np.empty((5, n - 1))
+    c, k, cp, em, ep = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
+    k[:] = k_seg
     for b in range(batch):
         for j in range(1, n):
             for i in range(3):
-                if first:
-                    x = actuator[b, j, i]
-                    for q in range(j):
-                        x = max(x * math.exp(-phi[b, q, j, i]) - loss[b, q, j, i], floor)
-                        out[q], sg[q], branch[b, q, j, i] = x, 1, 0.0
-                else:
-                    for q in range(j):
-                        cc[q] = tension[b, q, j, i] + k_seg * d_length[b, q, j, i] - (1.0 - a_lag) * branch[b, q, j, i]
-                        ph[q], ls[q] = phi[b, q, j, i], loss[b, q, j, i]
-                    elastic_chain_frame(
-                        actuator[b, j, i],
-                        cc[:j],
-                        ph[:j],
-                        ls[:j],
-                        kk[:j],
-                        floor,
-                        cp[:j],
-                        em[:j],
-                        ep[:j],
-                        out[:j],
-                        sg[:j],
-                    )
-                    for q in range(j):
-                        branch[b, q, j, i] = a_lag * branch[b, q, j, i] + kappa * (
-                            out[q] - cc[q] + k_seg * d_length[b, q, j, i]
-                        )
-                for q in range(j):
-                    tension[b, q, j, i] = out[q]
-                    sigma[b, q, j, i] = sg[q]
+                elastic_chain_frame(
+                    actuator[b, j, i], tension[b, :j, j, i], branch[b, :j, j, i], d_length[b, :j, j, i],
+                    phi[b, :j, j, i], loss[b, :j, j, i], k[:j], first, a_lag, kappa, floor,
+                    c[:j], cp[:j], em[:j], ep[:j], sigma[b, :j, j, i],
+                )  # fmt: skip
 
 
 if COMPILED:
-    elastic_chain_frame = numba.njit(cache=True, inline="always")(elastic_chain_frame)
     _step = numba.njit(cache=True, nogil=True)(_step)
 
 

@@ -27,9 +27,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from friction_models import bending_loss, edges_with_loss, run_in_wear_factor, slip_state
+from friction_models import bending_loss, edges_with_loss, slip_state
 from tendon_id.errors import ConfigError
-from tendon_id.geometry import RobotGeometry, sliding_speed_at, tendon_azimuths
+from tendon_id.geometry import RobotGeometry
+from tendon_id.sim.drift import drift_at, guide_sliding_speed
 from tendon_id.sim.effects import Effects
 from tendon_id.sim.sensor_chain import SENSOR_CHAIN_EFFECTS
 from tendon_id.sim.transmission import FrictionLaw, GuideWraps, guide_exponent, guide_mu, wear_factors
@@ -135,13 +136,8 @@ class TransmissionStepper:
         if self.drift is not None:  # tendon_id.sim.drift, one step at a time: the batch is the time axis there
             if self.theta_prev is not None:
                 rate = (np.cumsum(theta, axis=1) - np.cumsum(self.theta_prev, axis=1)) / self.dt
-                psi = tendon_azimuths(self.geometry)
-                for g in range(n - 1):
-                    speed = sliding_speed_at(rate, g, psi, self.geometry.hole_radius)
-                    self.slid[:, g] += speed.mean(axis=(1, 2)) * self.dt
-            d = self.drift
-            w = run_in_wear_factor(self.slid + d.prior_sliding_m, d.run_in_drop, d.run_in_length_m, d.wear_rate_per_m)
-            wear = w[:, :, None, None] * (1.0 if wear is None else wear[None])
+                self.slid += guide_sliding_speed(rate, self.geometry) * self.dt
+            wear = drift_at(self.slid, self.drift)[:, :, None, None] * (1.0 if wear is None else wear[None])
         self.theta_prev = np.array(theta, dtype=float)
         phi = guide_exponent(guide_mu(self.friction, alpha, "a guide"), alpha, self.geometry, self.effects, wear)
         phi = np.broadcast_to(phi, (self.batch, n - 1, n, 3))

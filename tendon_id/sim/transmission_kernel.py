@@ -41,7 +41,7 @@ try:  # pragma: no cover - which branch runs depends on the install
 except ImportError:  # pragma: no cover
     numba = None
 
-__all__ = ["COMPILED", "contact_mode", "segment_length", "transmit_compiled"]
+__all__ = ["COMPILED", "contact_mode", "elastic_chain_frame", "segment_length", "transmit_compiled"]
 
 #: Whether the compiled pass is available (numba importable).
 COMPILED = numba is not None
@@ -100,17 +100,8 @@ def _pass(
     elastic = slip == SLIP_ELASTIC
     m = n - 1 if elastic else 0  # the elastic chain's per-frame buffers: exponent, loss, length change, length
     phi_b, loss_b, dl_b, len_prev = np.zeros((m, n, 3)), np.zeros((m, n, 3)), np.zeros((m, n, 3)), np.zeros((m, n, 3))
-    scratch = np.empty((8, m))
-    cc, ph_s, ls_s, kk, cp, em, ep, out = (
-        scratch[0],
-        scratch[1],
-        scratch[2],
-        scratch[3],
-        scratch[4],
-        scratch[5],
-        scratch[6],
-        scratch[7],
-    )
+    scratch = np.empty((5, m))
+    cc, kk, cp, em, ep = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
     sg_s = np.zeros(m, dtype=np.int8)
     kk[:] = k_seg
     worn = wear.shape[0] > 1
@@ -219,29 +210,17 @@ def _pass(
                         sigma[k, g, j, i] = sg
                         if with_phi:
                             phi[k, g, j, i] = p
-        if elastic:
+        if elastic:  # each tendon's chain, its state in play (tensions) and z (branches), in place
             for j in range(1, n):
                 for i in range(3):
-                    if first:  # taut from the actuator: every guide on its forward-slip edge
-                        x = actuator[t, j, i]
+                    elastic_chain_frame(
+                        actuator[t, j, i], play[:j, j, i], z[:j, j, i], dl_b[:j, j, i], phi_b[:j, j, i],
+                        loss_b[:j, j, i], kk[:j], first, a_lag, kappa if visco else 0.0, floor,
+                        cc[:j], cp[:j], em[:j], ep[:j], sg_s[:j],
+                    )  # fmt: skip
+                    if k >= 0:
                         for q in range(j):
-                            x = max(x * math.exp(-phi_b[q, j, i]) - loss_b[q, j, i], floor)
-                            out[q], sg_s[q], z[q, j, i] = x, 1, 0.0
-                    else:
-                        for q in range(j):
-                            cc[q] = play[q, j, i] + k_seg * dl_b[q, j, i] - (1.0 - a_lag) * z[q, j, i]
-                            ph_s[q], ls_s[q] = phi_b[q, j, i], loss_b[q, j, i]
-                        elastic_chain_frame(
-                            actuator[t, j, i], cc[:j], ph_s[:j], ls_s[:j], kk[:j], floor,
-                            cp[:j], em[:j], ep[:j], out[:j], sg_s[:j],
-                        )  # fmt: skip
-                        if visco:  # the standard linear solid's branch: kappa k times the stretch's change
-                            for q in range(j):
-                                z[q, j, i] = a_lag * z[q, j, i] + kappa * (out[q] - cc[q] + k_seg * dl_b[q, j, i])
-                    for q in range(j):
-                        play[q, j, i] = out[q]
-                        if k >= 0:
-                            chain[k, q + 1, j, i] = out[q]
+                            chain[k, q + 1, j, i] = play[q, j, i]
                             sigma[k, q, j, i] = sg_s[q]
 
 

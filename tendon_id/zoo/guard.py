@@ -147,6 +147,16 @@ def worse_kinds(guard: dict) -> dict[str, float]:
     return {k: g["ratio"] for k, g in (guard.get("kinds") or {}).items() if g["worse"]}
 
 
+def worse_kinds_text(guard: dict) -> str:
+    """The worse kinds with their ratios, e.g. ``"steps 1.04x, scans 1.10x"`` (empty when none)."""
+    return ", ".join(f"{k} {r:.2f}x" for k, r in worse_kinds(guard).items())
+
+
+def guard_fired(guard: dict) -> bool:
+    """Whether the cascade was worse than its prior on validation, pooled or on one kind of motion."""
+    return bool(guard.get("worse")) or bool(worse_kinds(guard))
+
+
 def guard_message(model: str, guard: dict) -> str:
     """Plain lines: the validation figures (pooled, then per kind), and what to do when the cascade is worse."""
     kinds = guard.get("kinds") or {}
@@ -230,7 +240,7 @@ class GuardedCascade(TransmissionModel):
             kinds=kinds,
             fallback_kinds=fall_kinds,
         )
-        if pooled["worse"] or worse_kinds(self.guard_):
+        if guard_fired(self.guard_):
             warnings.warn(guard_message(self.name, self.guard_), PriorGuardWarning, stacklevel=3)
         return self.guard_
 
