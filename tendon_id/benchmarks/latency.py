@@ -1,6 +1,6 @@
 """Streaming latency of PG-CHTC (paper Section IV-B reports 23.48 ms per frame on an i9 CPU).
 
-Times ``PGCHTCStream.step`` frame by frame for an N-module robot with the default engine
+Times ``tendon_id.zoo.stream.PGCHTCStream.step`` frame by frame for an N-module robot with the default engine
 (the C kernel where it builds), and in the same run the torch engine and a naive per-frame
 implementation: every unit called separately for every set, its causal Transformer
 recomputed over the whole window of past unit inputs each time.  The naive step is timed

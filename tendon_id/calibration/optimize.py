@@ -172,6 +172,11 @@ def minimize(
         x, status = best["x"], "roundoff_limited"
     except nlopt.ForcedStop:
         x, status = best["x"], "forced_stop"
+    except nlopt.runtime_error:
+        # NLOPT_FAILURE, which SLSQP returns when its least-squares subproblem breaks down (for
+        # example near a degenerate active set): keep the best feasible point seen, and let the
+        # caller judge it by ``status`` and ``feasible``.
+        x, status = best["x"], "failure"
     if x is None:
         x = x_start
     if not feasible(x):  # COBYLA may end marginally outside the constraints

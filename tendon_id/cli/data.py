@@ -11,6 +11,7 @@ from tendon_id.atomic import check_writable, hold_interrupt
 from tendon_id.checks import one_of
 from tendon_id.cli.app import app
 from tendon_id.cli.common import JsonOutput, json_option, mapping_option, read_all
+from tendon_id.datasets import DEFAULT_RECIPE
 from tendon_id.progress import stage
 from tendon_id.sim.effects import EFFECT_NAMES
 from tendon_id.sim.protocols import PROTOCOL_NAMES
@@ -19,7 +20,7 @@ from tendon_id.sim.protocols import PROTOCOL_NAMES
 @app.command()
 def simulate(
     recipe: str = typer.Option(
-        "snake12-paper", "--recipe", metavar="NAME", help="Bundled recipe name or a recipe .toml file."
+        DEFAULT_RECIPE, "--recipe", metavar="NAME", help="Bundled recipe name or a recipe .toml file."
     ),
     protocol: str = typer.Option("posterior-3", "--protocol", metavar="NAME", help=f"{one_of(PROTOCOL_NAMES)}."),
     effects: Optional[str] = typer.Option(

@@ -10,13 +10,14 @@ import typer
 from tendon_id.atomic import check_writable
 from tendon_id.cli.app import app
 from tendon_id.cli.common import JsonOutput, json_option, training_warnings
+from tendon_id.datasets import DEFAULT_RECIPE
 from tendon_id.progress import stage
 
 
 @app.command()
 def demo(
     out: Path = typer.Option(Path("out"), "--out", metavar="DIR", help="Folder for the demo's report."),
-    recipe: str = typer.Option("snake12-paper", "--recipe", metavar="NAME", help="Recipe to run the demo on."),
+    recipe: str = typer.Option(DEFAULT_RECIPE, "--recipe", metavar="NAME", help="Recipe to run the demo on."),
     frames: Optional[int] = typer.Option(
         None, "--frames", metavar="N", help="Frames per protocol in the summary (default: the demo's small sizes)."
     ),

@@ -213,7 +213,7 @@ def diagnose(
 
 
 #: The metadata keys in which a simulated recording states its truth (:doc:`/guide/simulator`).
-TRUTH_KEYS = ("recipe", "effects", "friction_truth", "session")
+TRUTH_KEYS = ("recipe", "effects", "effect_params", "friction_truth", "session")
 
 
 def simulator_truth(rec) -> dict | None:

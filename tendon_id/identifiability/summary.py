@@ -101,7 +101,7 @@ def lead_sentences(result: IdentifiabilityResult) -> list[dict]:
             + (f", {100 * share:.0f} % of the truth." if abs(share - 1) > 0.1 else ".")
         )
         if law["effects"]:
-            text += f" The simulator adds {effect_words(law['effects'])} to that law."
+            text += f" The simulator adds {effect_words(law['effects'], law.get('effect_params'))} to that law."
         out.append({"tone": "truth", "text": text})
     out.append(advice_sentence(result))
     return out

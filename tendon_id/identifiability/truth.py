@@ -75,4 +75,5 @@ def truth_law(recs: Sequence[Recording]) -> dict | None:
         "mu0": [float(m) for m in A + B],
         "feasible": bool(np.all(B >= np.abs(A))),
         "effects": effects,
+        "effect_params": dict(recs[0].meta.get("effect_params") or {}),
     }

@@ -32,9 +32,30 @@ EFFECT_WORDS = {
 STATEFUL = frozenset({"stick_slip", "viscoelastic", "friction_drift"})
 
 
-def effect_words(names) -> str:
-    """``["contact", "viscoelastic"]`` as "the hole's contact gate and viscoelastic lag"."""
-    words = [EFFECT_WORDS.get(n, n.replace("_", " ")) for n in names]
+#: Words for an effect under one of its settings (``effect_params``), where the setting changes the physics.
+SETTING_WORDS = {
+    ("contact", "gate", "dead_zone"): "the hole's clearance (a dead zone on each wrap)",
+    ("contact", "gate", "hard"): "the hole's contact gate (a hard step on the whole wrap)",
+    ("stick_slip", "driver", "elastic"): "elastic tendons through capstan stick–slip bands at every guide",
+    ("stick_slip", "driver", "motion"): "stick–slip driven by the joints' motion (rigid tendons)",
+    ("stick_slip", "driver", "tension"): "stick–slip driven by the entering tension (rigid tendons)",
+}
+
+
+def _words(name: str, params: Mapping | None) -> str:
+    for (effect, key, value), words in SETTING_WORDS.items():
+        if effect == name and params and (params.get(name) or {}).get(key) == value:
+            return words
+    return EFFECT_WORDS.get(name, name.replace("_", " "))
+
+
+def effect_words(names, params: Mapping | None = None) -> str:
+    """``["contact", "viscoelastic"]`` as "the hole's contact gate and viscoelastic lag".
+
+    ``params`` (a recording's ``effect_params``) picks the words of a setting that changes the
+    physics, such as the elastic tendon chain of ``stick_slip``'s ``driver``.
+    """
+    words = [_words(n, params) for n in names]
     if not words:
         return "none"
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
@@ -64,7 +85,7 @@ def truth_sentence(meta: Mapping) -> str | None:
     recipe = meta.get("recipe")
     text = (
         f"The simulator's truth{f' ({recipe})' if recipe else ''}: capstan friction mu(0) = A + B = "
-        f"{', '.join(f'{m:.2f}' for m in mu0)} per tendon, with {effect_words(effects)}"
+        f"{', '.join(f'{m:.2f}' for m in mu0)} per tendon, with {effect_words(effects, meta.get('effect_params'))}"
         + ("" if effects else " and no unmodelled effect")
     )
     if meta.get("session") == "continuous" and effects and set(effects) & STATEFUL:

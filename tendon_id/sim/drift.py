@@ -13,8 +13,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from friction_models import run_in_wear_factor
-from tendon_id.geometry import RobotGeometry, backward_rate, sliding_speed_at, tendon_azimuths
+from tendon_id.geometry import RobotGeometry, tendon_azimuths
 from tendon_id.sim.sensor_effects import FrictionDrift
+from tendon_id.sliding import backward_rate, sliding_speed_at
 
 __all__ = ["drift_at", "drift_factors", "guide_sliding_distance", "guide_sliding_speed"]
 
@@ -23,7 +24,7 @@ def guide_sliding_distance(theta: NDArray, reset: NDArray, geometry: RobotGeomet
     """Cumulative sliding distance through each guide [m], shape (T, N-1).
 
     A tendon of set ``j`` slides through guide ``k < j`` as fast as its path beyond the guide
-    changes length (:func:`tendon_id.geometry.sliding_speed`).  The guide's speed is the mean
+    changes length (:func:`tendon_id.sliding.sliding_speed`).  The guide's speed is the mean
     of that over the ``3 (N - k)`` tendons passing it; its distance at frame ``t`` is the sum of
     those speeds times ``dt`` over frames ``1..t`` (rectangle rule: the backward-difference speed
     of frame ``t`` is the mean speed over the period ending there).  The speed is zero at a reset,
@@ -57,7 +58,7 @@ def guide_sliding_speed(cum_rate: NDArray, geometry: RobotGeometry) -> NDArray[n
     ----------
     cum_rate : ndarray, shape (T, N, 2)
         Rate of the running sum of the joint angles over the joints [rad/s]
-        (:func:`tendon_id.geometry.backward_rate` of ``cumsum(theta, axis=1)``); ``T`` may be
+        (:func:`tendon_id.sliding.backward_rate` of ``cumsum(theta, axis=1)``); ``T`` may be
         frames or, for one step of the closed loop, a batch of robots.
     geometry : RobotGeometry
     """

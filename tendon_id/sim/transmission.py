@@ -33,12 +33,8 @@ from tendon_id.errors import ConfigError
 from tendon_id.geometry import (
     RobotGeometry,
     backbone_wrap,
-    backward_rate,
     joint_rotation,
-    path_rate_at,
     projected_wrap,
-    sliding_speed,
-    sliding_speed_at,
     tendon_azimuths,
     turn_into_upper,
     turn_out_of_lower,
@@ -49,6 +45,7 @@ from tendon_id.sim.effects import Effects
 from tendon_id.sim.elastic import transmit_elastic
 from tendon_id.sim.friction_law import FrictionLaw, TransmissionResult
 from tendon_id.sim.sensor_chain import SENSOR_CHAIN_EFFECTS
+from tendon_id.sliding import backward_rate, path_rate_at, sliding_speed, sliding_speed_at
 
 __all__ = [
     "FrictionLaw",
@@ -276,7 +273,7 @@ def guide_terms(
 
     The exponent-stage blocks of :mod:`friction_models` in the order of paper Eqs. (4)-(6):
     the friction law, its growth with sliding speed (``velocity_friction``; ``cum_rate`` is
-    the running joint-angle rate :func:`~tendon_id.geometry.backward_rate` of the cumulative
+    the running joint-angle rate :func:`~tendon_id.sliding.backward_rate` of the cumulative
     angles, or None), the clearance and the wear factor ``wear[g]`` (``wear``: per guide, or
     per frame and guide, or None).
     """

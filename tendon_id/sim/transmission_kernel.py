@@ -34,7 +34,8 @@ from numpy.typing import NDArray
 
 from friction_models import SLACK_FLOOR_N
 from friction_models.elastic_chain import elastic_chain_frame
-from tendon_id.geometry import backward_rate, tendon_azimuths
+from tendon_id.geometry import tendon_azimuths
+from tendon_id.sliding import backward_rate
 
 try:  # pragma: no cover - which branch runs depends on the install
     import numba
@@ -156,7 +157,7 @@ def _pass(
                     if mu < 0.0 and alpha > bad_alpha[g]:
                         bad_alpha[g] = alpha
                     v = 0.0
-                    if vf or slip == SLIP_MOTION:  # path rate beyond the guide (tendon_id.geometry.path_rate_at)
+                    if vf or slip == SLIP_MOTION:  # path rate beyond the guide (tendon_id.sliding.path_rate_at)
                         b0 = cum_rate[t, j, 0] - cum_rate[t, g, 0]
                         b1 = cum_rate[t, j, 1] - cum_rate[t, g, 1]
                         v = -hole_r * (b0 * cos_psi[j, i] + b1 * sin_psi[j, i])

@@ -4,6 +4,7 @@ import html
 import re
 
 from tendon_id.cli import main
+from tendon_id.datasets import DEFAULT_RECIPE
 
 
 def test_demo_writes_a_self_contained_summary(tmp_path, capsys):
@@ -19,7 +20,9 @@ def test_demo_writes_a_self_contained_summary(tmp_path, capsys):
     assert "http://" not in page and "https://" not in page
     # without models, the first screen says so and states the simulator's truth
     lead = html.unescape(page.split('class="lead"')[1].split("</section>")[0])
-    assert "no model was trained" in lead and "The simulator's truth (snake12-paper)" in lead
+    assert "no model was trained" in lead and f"The simulator's truth ({DEFAULT_RECIPE})" in lead
+    # the default recipe's physics, in words: elastic tendons and the clearance's dead zone
+    assert "elastic tendons through capstan stick–slip bands" in lead and "dead zone" in lead
 
 
 def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypatch):

@@ -109,7 +109,7 @@ def test_kernel_refuses_what_it_cannot_run(kernel):
 
 def test_a_missing_compiler_falls_back_to_torch_with_a_warning(monkeypatch, tmp_path):
     from tendon_id.errors import TendonIdError
-    from tendon_id.zoo.learned import PGCHTCStream
+    from tendon_id.zoo.stream import PGCHTCStream
 
     monkeypatch.setattr(sn, "_loaded", None)
     monkeypatch.setattr(sn, "_failure", None)

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from friction_models import dead_zone_wrap, guide_wear_factors, hard_contact_gate
 from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
-from tendon_id.geometry import sliding_speed
+from tendon_id.sliding import sliding_speed
 from tendon_id.zoo.blocks.base import Block
 from tendon_id.zoo.blocks.geometric import CLEARANCE_BOUNDS, CLEARANCE_START, clearance_start
 
@@ -85,7 +85,7 @@ class VelocityFriction(Block):
 
     The simulator's ``velocity_friction`` (:doc:`/guide/simulator`) without its Stribeck dip:
     ``viscous = 1 / v_ref``.  The speed is the rate at which the tendon's path beyond
-    the guide changes length (:func:`tendon_id.geometry.sliding_speed`).
+    the guide changes length (:func:`tendon_id.sliding.sliding_speed`).
 
     Parameters
     ----------

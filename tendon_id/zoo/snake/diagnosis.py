@@ -24,7 +24,7 @@ from tendon_id.diagnosis.splits import Split
 from tendon_id.diagnosis.stats import NoiseFloor, difference_floor
 from tendon_id.diagnosis.where import quartile_masks
 from tendon_id.errors import ConfigError
-from tendon_id.geometry import backward_rate
+from tendon_id.sliding import backward_rate
 from tendon_id.zoo.inputs import TransmissionInputs
 
 __all__ = ["MeasurementNoise", "REVERSAL_BAND", "make_splits", "noise_floor", "signatures", "strata_masks"]
