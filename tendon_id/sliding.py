@@ -10,9 +10,17 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.geometry import RobotGeometry, tendon_azimuths
+from tendon_id.geometry import RobotGeometry, crossing_length, joint_rotation, tendon_azimuths
 
-__all__ = ["backward_rate", "path_rate_at", "sliding_speed", "sliding_speed_at"]
+__all__ = [
+    "backward_rate",
+    "guide_sliding_distance",
+    "guide_sliding_speed",
+    "path_rate_at",
+    "segment_path_lengths",
+    "sliding_speed",
+    "sliding_speed_at",
+]
 
 
 def backward_rate(x: NDArray, reset: NDArray, dt: float) -> NDArray:
@@ -62,3 +70,66 @@ def path_rate_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) ->
 def sliding_speed_at(cum_rate: NDArray, g: int, psi: NDArray, hole_radius: float) -> NDArray:
     """:func:`sliding_speed` for one guide (index ``g``) and the sets beyond it, shape (T, N-g-1, 3)."""
     return np.abs(path_rate_at(cum_rate, g, psi, hole_radius))
+
+
+def guide_sliding_distance(theta: NDArray, reset: NDArray, geometry: RobotGeometry, dt: float) -> NDArray[np.float64]:
+    """Cumulative sliding distance through each guide [m], shape (T, N-1).
+
+    A tendon of set ``j`` slides through guide ``k < j`` as fast as its path beyond the guide
+    changes length (:func:`sliding_speed`).  The guide's speed is the mean
+    of that over the ``3 (N - k)`` tendons passing it; its distance at frame ``t`` is the sum of
+    those speeds times ``dt`` over frames ``1..t`` (rectangle rule: the backward-difference speed
+    of frame ``t`` is the mean speed over the period ending there).  The speed is zero at a reset,
+    where the pose jumps rather than moves.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (T, N, 2)
+        True joint angles of the whole session [rad].
+    reset : ndarray of bool, shape (T,)
+        True where the session restarts (no motion into that frame).
+    geometry : RobotGeometry
+    dt : float
+        Sample period [s].
+    """
+    theta = np.asarray(theta, dtype=float)
+    n = geometry.n_modules
+    if theta.ndim != 3 or theta.shape[1:] != (n, 2):
+        raise ValueError(f"theta must have shape (T, {n}, 2), got {theta.shape}")
+    reset = np.asarray(reset, dtype=bool)
+    if reset.shape != theta.shape[:1]:
+        raise ValueError(f"reset needs one flag per frame, shape ({theta.shape[0]},), got {reset.shape}")
+    speed = guide_sliding_speed(backward_rate(np.cumsum(theta, axis=1), reset, dt), geometry)
+    return np.cumsum(speed, axis=0) * dt
+
+
+def guide_sliding_speed(cum_rate: NDArray, geometry: RobotGeometry) -> NDArray[np.float64]:
+    """Mean sliding speed [m/s] of the tendons through each guide, shape (T, N-1).
+
+    Parameters
+    ----------
+    cum_rate : ndarray, shape (T, N, 2)
+        Rate of the running sum of the joint angles over the joints [rad/s]
+        (:func:`backward_rate` of ``cumsum(theta, axis=1)``); ``T`` may be
+        frames or, for one step of the closed loop, a batch of robots.
+    geometry : RobotGeometry
+    """
+    n = geometry.n_modules
+    psi = tendon_azimuths(geometry)
+    speed = np.empty((cum_rate.shape[0], n - 1))
+    for g in range(n - 1):  # guide by guide: memory stays at (T, sets, 3)
+        speed[:, g] = sliding_speed_at(cum_rate, g, psi, geometry.hole_radius).mean(axis=(1, 2))
+    return speed
+
+
+def segment_path_lengths(theta: NDArray, geometry: RobotGeometry) -> NDArray:
+    """Changing part of each tendon segment's path [m], shape (T, N-1, N, 3).
+
+    ``[t, g, j, i]``: the straight segment across joint ``g + 2`` (1-based) of tendon ``i`` of set
+    ``j``, which lies between guides ``g + 1`` and ``g + 2``; the rest of the segment runs along a
+    link and does not change length.
+    """
+    psi = tendon_azimuths(geometry)
+    ux, uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
+    R = joint_rotation(np.asarray(theta, dtype=float)[:, 1:])  # joints 2..N
+    return crossing_length(R[:, :, None, None], ux, uy, 0.5 * geometry.joint_gap)

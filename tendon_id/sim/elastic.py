@@ -16,29 +16,17 @@ from numpy.typing import NDArray
 
 from friction_models import SLACK_FLOOR_N
 from friction_models.elastic_chain import elastic_chain
-from tendon_id.geometry import RobotGeometry, crossing_length, joint_rotation, tendon_azimuths
+from tendon_id.geometry import RobotGeometry
 from tendon_id.sim.effects import Effects
 from tendon_id.sim.transmission_kernel import COMPILED, elastic_chain_frame, segment_length
+from tendon_id.sliding import segment_path_lengths
 
 try:  # pragma: no cover - which branch runs depends on the install
     import numba
 except ImportError:  # pragma: no cover
     numba = None
 
-__all__ = ["ElasticState", "segment_path_lengths", "transmit_elastic"]
-
-
-def segment_path_lengths(theta: NDArray, geometry: RobotGeometry) -> NDArray:
-    """Changing part of each tendon segment's path [m], shape (T, N-1, N, 3).
-
-    ``[t, g, j, i]``: the straight segment across joint ``g + 2`` (1-based) of tendon ``i`` of set
-    ``j``, which lies between guides ``g + 1`` and ``g + 2``; the rest of the segment runs along a
-    link and does not change length.
-    """
-    psi = tendon_azimuths(geometry)
-    ux, uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
-    R = joint_rotation(np.asarray(theta, dtype=float)[:, 1:])  # joints 2..N
-    return crossing_length(R[:, :, None, None], ux, uy, 0.5 * geometry.joint_gap)
+__all__ = ["ElasticState", "transmit_elastic"]
 
 
 def transmit_elastic(theta, actuator, reset, geometry: RobotGeometry, effects: Effects, dt, phi, loss):

@@ -30,10 +30,11 @@ from numpy.typing import NDArray
 from friction_models import bending_loss, edges_with_loss, slip_state
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
-from tendon_id.sim.drift import drift_at, guide_sliding_speed
+from tendon_id.sim.drift import drift_at
 from tendon_id.sim.effects import Effects
 from tendon_id.sim.sensor_chain import SENSOR_CHAIN_EFFECTS
 from tendon_id.sim.transmission import FrictionLaw, GuideWraps, guide_exponent, guide_mu, wear_factors
+from tendon_id.sliding import guide_sliding_speed
 
 __all__ = ["SENSOR_EFFECTS", "STEPPED_EFFECTS", "TransmissionStepper"]
 

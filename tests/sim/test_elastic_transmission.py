@@ -6,9 +6,9 @@ import pytest
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
 from tendon_id.sim import Effects
-from tendon_id.sim.elastic import segment_path_lengths
 from tendon_id.sim.transmission import FrictionLaw, transmit
 from tendon_id.sim.transmission_kernel import COMPILED
+from tendon_id.sliding import segment_path_lengths
 
 N, FRAMES, DT = 6, 600, 0.1
 

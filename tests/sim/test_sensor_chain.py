@@ -10,9 +10,10 @@ from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry, tendon_azimuths
 from tendon_id.sim import Effects, Sensors, simulate
-from tendon_id.sim.drift import drift_factors, guide_sliding_distance
+from tendon_id.sim.drift import drift_factors
 from tendon_id.sim.sensor_chain import SENSOR_CHAIN_EFFECTS, cell_errors, sensor_signals
 from tendon_id.sim.sensor_effects import ActuatorCells, ClockSkew, FrictionDrift, LoadCellDynamics
+from tendon_id.sliding import guide_sliding_distance
 
 NEW = ("actuator_cells", "clock_skew", "load_cell_dynamics", "friction_drift")
 FRAMES = 400  # planned-paths: trajectories of 315 and 85 frames; posterior-6: 4 of 100-125
