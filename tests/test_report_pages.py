@@ -140,6 +140,16 @@ def test_closed_loop_lead_ranks_by_settling_and_explains_the_slowest():
     assert "one seed" in lead[-1][0]
 
 
+def test_closed_loop_lead_warns_first_when_the_oracle_itself_does_not_settle():
+    rows = [_row("oracle", 1, None, 0.02), _row("oracle", 2, 3.0, 0.02)]
+    rows += [_row("a", 1, 4.0, 0.3), _row("a", 2, 5.0, 0.3), _row("b", 1, 9.0, 0.9), _row("b", 2, 8.0, 0.9)]
+    lead = loop_lead({"rows": rows})
+    assert lead[0][1] == "warning" and "even the true tensions (oracle) do not settle" in lead[0][0]
+    assert lead[1][1] == "verdict" and "a settles fastest" in lead[1][0]
+    settled = [_row("oracle", k, 1.5, 0.02) for k in (1, 2)] + rows[2:]
+    assert all(tone != "warning" for _, tone in loop_lead({"rows": settled}))
+
+
 def _rec(angle_deg, tension):
     """A 12-module recording stand-in: every joint bent by ``angle_deg``, every actuator at ``tension`` [N]."""
     t = len(tension)

@@ -93,6 +93,15 @@ def lead_sentences(result: Mapping, open_loop: Mapping[str, float] | None = None
         if not names:
             continue
         settle = {e: _mean_settle(rows, e, regime) for e in names}
+        if "oracle" in {r["estimator"] for r in rows} and not np.isfinite(_mean_settle(rows, "oracle", regime)):
+            out.append(
+                (
+                    f"{regime}: even the true tensions (oracle) do not settle in every loop. The controller's gains "
+                    "were tuned with the oracle on snake12-paper's robot (experiments/tune_closed_loop.py), and they "
+                    "do not hold this robot, so what follows ranks estimators in a loop that is not tuned for it.",
+                    "warning",
+                )
+            )
         ranked = sorted(names, key=lambda e: settle[e])
         best, worst = ranked[0], ranked[-1]
         text = f"{regime}: {best} settles fastest ({_s(settle[best])} on average over the step and the return)"
