@@ -215,7 +215,7 @@ def simulator() -> dict:
     from friction_models.elastic_chain import elastic_chain
     from tendon_id.datasets import load_recipe
     from tendon_id.sim.transmission import GuideWraps, guide_terms, wear_factors
-    from tendon_id.sim.transmission_kernel import segment_length
+    from tendon_id.sliding import segment_length
 
     rec = load_recipe("snake12-elastic")
     geo, eff = rec.robot, rec.effects

@@ -11,6 +11,7 @@ def run_in_wear_factor(
     run_in_drop: float,
     run_in_length_m: float,
     wear_rate_per_m: float,
+    form: str = "exponential",
 ) -> NDArray[np.float64]:
     """Friction multiplier after sliding a distance ``s``: run-in, then wear.
 
@@ -37,6 +38,10 @@ def run_in_wear_factor(
         Run-in distance ``L > 0`` [m]: ``1 - exp(-1)`` (63 %) of the fall is done after ``L``.
     wear_rate_per_m : float
         Rise of the multiplier per metre slid, ``c >= 0`` [1/m].
+    form : {"exponential", "hyperbolic"}
+        Shape of the run-in: ``1 - exp(-s / L)`` (default) or ``s / (s + L)``, which approaches the
+        steady friction more slowly (half the fall after ``L``); both are running-in curves of
+        Blau's review.
 
     Returns
     -------
@@ -49,7 +54,10 @@ def run_in_wear_factor(
         raise ValueError(f"run_in_length_m must be a positive distance in m, got {run_in_length_m}")
     if not wear_rate_per_m >= 0:
         raise ValueError(f"wear_rate_per_m must be >= 0 per m, got {wear_rate_per_m}")
+    if form not in ("exponential", "hyperbolic"):
+        raise ValueError(f"form must be 'exponential' or 'hyperbolic', got {form!r}")
     s = np.asarray(sliding_distance_m, dtype=float)
     if np.any(s < 0):
         raise ValueError("a sliding distance is >= 0 m")
-    return 1.0 - run_in_drop * -np.expm1(-s / run_in_length_m) + wear_rate_per_m * s
+    run_in = -np.expm1(-s / run_in_length_m) if form == "exponential" else s / (s + run_in_length_m)
+    return 1.0 - run_in_drop * run_in + wear_rate_per_m * s

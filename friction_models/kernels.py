@@ -43,7 +43,7 @@ def _play_scan_loop(lo, hi, reset, start, out):  # pragma: no cover - compiled
     return finite
 
 
-def _play_series_loop(log_in, phi, n_pass, reset, final, chain, keep):  # pragma: no cover - compiled
+def _play_series_loop(log_in, phi, n_pass, reset, start, final, chain, keep):  # pragma: no cover - compiled
     # Frame by frame through all guides, with min/max (no branches on stick or slip).
     n, m = log_in.shape
     state = np.zeros((phi.shape[1], m))
@@ -53,11 +53,12 @@ def _play_series_loop(log_in, phi, n_pass, reset, final, chain, keep):  # pragma
         for j in range(m):
             x = log_in[t, j]
             finite &= x - x == 0.0
+            f = start[t, j] if restart else 0.0
             for g in range(n_pass[j]):
                 p = phi[t, g, j]
                 finite &= p - p == 0.0
                 lo = x - p
-                x = lo if restart else min(max(state[g, j], lo), x + p)
+                x = lo + f * (p + p) if restart else min(max(state[g, j], lo), x + p)
                 state[g, j] = x
                 if keep:
                     chain[t, g, j] = x
@@ -77,7 +78,9 @@ def _numpy_scan(lo: NDArray, hi: NDArray, reset: NDArray, start: NDArray) -> NDA
     return np.minimum(np.maximum(start, p_lo), p_hi)
 
 
-def _numpy_series(log_in: NDArray, phi: NDArray, n_pass: NDArray, reset: NDArray, chain: NDArray | None) -> NDArray:
+def _numpy_series(
+    log_in: NDArray, phi: NDArray, n_pass: NDArray, reset: NDArray, start: NDArray, chain: NDArray | None
+) -> NDArray:
     """The reference route of :func:`play_series`: one scan per guide."""
     x = np.array(log_in, dtype=float)
     first = reset.copy()
@@ -86,7 +89,9 @@ def _numpy_series(log_in: NDArray, phi: NDArray, n_pass: NDArray, reset: NDArray
         cols = n_pass > g
         if not cols.any():
             break
-        lo, hi = x[:, cols] - phi[:, g, cols], x[:, cols] + phi[:, g, cols]
+        p = phi[:, g, cols]
+        lo, hi = x[:, cols] - p, x[:, cols] + p
+        lo = np.where(first[:, None], lo + start[:, cols] * (p + p), lo)  # a restart's state: a share of the band
         x[:, cols] = _numpy_scan(lo, hi, first, lo[0])
         if chain is not None:
             chain[:, g, cols] = x[:, cols]
@@ -126,13 +131,20 @@ def play_scan(lo: NDArray, hi: NDArray, reset: NDArray, start: NDArray) -> NDArr
 
 
 def play_series(
-    log_in: NDArray, phi: NDArray, n_pass: NDArray, reset: NDArray, keep_chain: bool = False
+    log_in: NDArray,
+    phi: NDArray,
+    n_pass: NDArray,
+    reset: NDArray,
+    keep_chain: bool = False,
+    start: NDArray | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     """Nonsmooth capstan through guides in series: a play operator per guide, each fed by the last.
 
     Guide ``g`` of column ``j`` has the band ``[x - phi, x + phi]`` around its input ``x``
     (the tension leaving guide ``g - 1``, or ``log_in`` at the first guide), and every guide
-    restarts on its forward-slip edge at a reset (and at frame 0).
+    restarts on its forward-slip edge at a reset (and at frame 0), or, with ``start``, at the
+    share ``f`` of its band: ``x - phi + 2 f phi``, the same share at every guide of the column,
+    which is a state the chain can hold (each guide's output lies in its band).
 
     Parameters
     ----------
@@ -146,6 +158,9 @@ def play_series(
         Trajectory starts.
     keep_chain : bool
         Also return every guide's output.
+    start : ndarray, shape (T, M), optional
+        Share of the band ``f`` in ``[0, 1]`` each column restarts at, read at restarts only
+        (default 0: forward slip, the taut start; 1 is reverse slip).
 
     Returns
     -------
@@ -159,9 +174,10 @@ def play_series(
     n_pass = np.minimum(np.asarray(n_pass, dtype=np.int64), phi.shape[1])
     reset = np.ascontiguousarray(reset, dtype=np.bool_)
     chain = np.full((n, phi.shape[1], m), np.nan) if keep_chain else None
+    start = np.zeros((n, m)) if start is None else np.ascontiguousarray(np.broadcast_to(start, (n, m)), dtype=float)
     if COMPILED:
         final = np.empty((n, m))
         args = (np.ascontiguousarray(log_in, dtype=float), np.ascontiguousarray(phi, dtype=float), n_pass, reset)
-        if _play_series_loop(*args, final, chain if keep_chain else np.empty((1, 1, 1)), keep_chain):
+        if _play_series_loop(*args, start, final, chain if keep_chain else np.empty((1, 1, 1)), keep_chain):
             return final, chain
-    return _numpy_series(log_in, phi, n_pass, reset, chain), chain
+    return _numpy_series(log_in, phi, n_pass, reset, start, chain), chain

@@ -21,8 +21,9 @@ from tendon_id.sim import Recipe, parse_effect_names, simulate
 #: tendons and sensors as built (its card says why it is the default; the paper's benchmarks keep ``snake12-paper``).
 DEFAULT_RECIPE = "snake12-elastic"
 #: Part of every cache key: bump it when the simulator writes different content for the same recipe
-#: (2: the metadata states the recipe's ``session``), so a stale cached recording is never read back.
-SIMULATION_REVISION = 2
+#: (2: the metadata states the recipe's ``session``; 3: and the effects' ``options`` that are on), so a
+#: stale cached recording is never read back.
+SIMULATION_REVISION = 3
 
 
 def recipe_dir() -> Path:

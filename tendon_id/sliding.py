@@ -17,6 +17,7 @@ __all__ = [
     "guide_sliding_distance",
     "guide_sliding_speed",
     "path_rate_at",
+    "segment_length",
     "segment_path_lengths",
     "sliding_speed",
     "sliding_speed_at",
@@ -133,3 +134,13 @@ def segment_path_lengths(theta: NDArray, geometry: RobotGeometry) -> NDArray:
     ux, uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
     R = joint_rotation(np.asarray(theta, dtype=float)[:, 1:])  # joints 2..N
     return crossing_length(R[:, :, None, None], ux, uy, 0.5 * geometry.joint_gap)
+
+
+def segment_length(geometry) -> float:
+    """Unstretched length [m] of a tendon segment between two guides: one module's pitch.
+
+    The friction of a guide is lumped at its link (:doc:`/guide/simulator`), so the elastic
+    segment between guides ``k`` and ``k + 1`` runs from the middle of link ``k`` to the middle
+    of link ``k + 1``: a link and a joint gap.  The last segment, to the anchor, is taken as long.
+    """
+    return float(geometry.link_length + geometry.joint_gap)

@@ -13,10 +13,21 @@ from collections import Counter
 
 import numpy as np
 
-from tendon_id.benchmarks.withheld import BASE_FOR, LIBRARY, MAGNITUDES, OUT_OF_LIBRARY, Case, case_data, case_recipe
+from tendon_id.benchmarks.forms import family_of
+from tendon_id.benchmarks.withheld import (
+    BASE_FOR,
+    LIBRARY,
+    MAGNITUDES,
+    OTHER_FORMS,
+    OUT_OF_LIBRARY,
+    Case,
+    case_data,
+    case_recipe,
+)
 
-#: Effects without a magnitude knob: the nonsmooth capstan's stick band is the friction itself.
-NO_MAGNITUDE = ("stick_slip",)
+#: Effects without a magnitude knob: the nonsmooth capstan's stick band is the friction itself, and
+#: the inherited start state is whatever the session's unlogged motion leaves.
+NO_MAGNITUDE = ("stick_slip", "start_state")
 #: Pairs of withheld effects (both against capstan-nonsmooth).
 PAIRS = (
     ("viscoelastic", "sensor_bias"),
@@ -39,6 +50,8 @@ def benchmark_cases(quick: bool = False, seed: int = 0) -> list[Case]:
         out += [Case("single", (effect,), m, s, frames) for m in mags for s in seeds]
     out += [Case("null", (), "default", seed + s, frames) for s in range(size["null_seeds"])]
     out += [Case("out-of-library", (e,), "default", s, frames) for e in OUT_OF_LIBRARY for s in seeds]
+    forms = list(OTHER_FORMS)[:1] if quick else list(OTHER_FORMS)
+    out += [Case("other-form", (e,), "default", s, frames) for e in forms for s in seeds]
     pairs = PAIRS[:1] if quick else PAIRS
     out += [Case("pair", p, "default", s, frames) for p in pairs for s in seeds]
     return out
@@ -70,11 +83,12 @@ def run_case(case: Case) -> dict:
         "oracle_rmse": None,
         "detectable": None,
     }
-    lib = tuple(e for e in case.truth if e not in OUT_OF_LIBRARY)
+    lib = case.library
     if lib:
         truth = case_recipe(case).effects
         robot = case_recipe(case).robot
-        truth_blocks = tuple(oracle_block(e, truth, robot) for e in LIBRARY if e in lib)  # in the simulator's order
+        sensor_truth = train[0].meta.get("sensor_truth")  # the cells drawn for the training seed
+        truth_blocks = tuple(oracle_block(e, truth, robot, sensor_truth) for e in LIBRARY if e in lib)
         structure = base.with_blocks(*truth_blocks)
         family = base.family
         # The base's fitted routing wrap (and clearance) where it has them; the oracle's blocks at the truth.
@@ -120,7 +134,7 @@ def summarise(rows: list[dict]) -> dict:
     columns = library + ["none", "unexplained"]
     confusion: dict[str, Counter] = {}
     for r in rows:
-        if r["kind"] in ("single", "null", "out-of-library"):
+        if r["kind"] in ("single", "null", "out-of-library", "other-form"):
             truth = r["truth"][0] if r["truth"] else "none"
             confusion.setdefault(truth, Counter())[r["label"]] += 1
     top1, detectable = {}, {}
@@ -136,6 +150,7 @@ def summarise(rows: list[dict]) -> dict:
             }
     null = [r for r in rows if r["kind"] == "null"]
     ool = [r for r in rows if r["kind"] == "out-of-library"]
+    forms = [r for r in rows if r["kind"] == "other-form"]
     pairs = [r for r in rows if r["kind"] == "pair"]
     errors = []
     for r in rows:
@@ -150,6 +165,11 @@ def summarise(rows: list[dict]) -> dict:
         "top1_detectable": detectable,
         "null_false_alarm": (sum(r["label"] != "none" for r in null) / len(null)) if null else None,
         "ool_named": (sum(r["label"] in library for r in ool) / len(ool)) if ool else None,
+        # An other-form case is right when its family is named (explained or in part), never "unexplained".
+        "other_form_family": (sum(r["label"] == family_of(r["truth"][0]) for r in forms) / len(forms))
+        if forms
+        else None,
+        "other_form_unexplained": (sum(r["verdict"] == "unexplained" for r in forms) / len(forms)) if forms else None,
         "pair_recovered": (sum(set(r["truth"]) <= set(r["ladder"][:2]) for r in pairs) / len(pairs)) if pairs else None,
         "median_shrinkage_error": float(np.median(errors)) if errors else None,
         "cases": len(rows),
@@ -202,6 +222,11 @@ def format_diagnosis(r: dict) -> str:
 
     lines.append(f"null false alarms: {pct(r['null_false_alarm'])}")
     lines.append(f"out-of-library cases named as a library effect: {pct(r['ool_named'])}")
+    if r.get("other_form_family") is not None:
+        lines.append(
+            f"other-form cases whose family is named: {pct(r['other_form_family'])}"
+            f" (answered 'unexplained': {pct(r['other_form_unexplained'])})"
+        )
     lines.append(f"pairs recovered in the first two rungs: {pct(r['pair_recovered'])}")
     lines.append(f"median shrinkage error against the oracle refit: {pct(r['median_shrinkage_error'])}")
     return "\n".join(lines)

@@ -3,16 +3,18 @@
 A case's truth is the base model's structure (the capstan law, plus contact and
 stick/slip for ``capstan-nonsmooth``) and one or two effects the base leaves out, each at
 a magnitude: half, default or double its documented default (:doc:`/guide/simulator`, the settings of
-:mod:`tendon_id.sim.effects`).  The smooth edge of the stick/slip band (``smooth_edge``, the
-option ``stick_slip.edge = "smooth"``) is withheld as an effect of its own: its truth is the
-nonsmooth capstan with a smooth edge, its base ``capstan-nonsmooth`` (a sharp edge), and its
-magnitude scales the edge's width.  Null cases withhold nothing.  Out-of-library cases withhold
-physics no candidate block offers: a transport delay of the terminal load cell, and a
-Stribeck dip of friction with speed.  The robot and the protocols (:data:`PROTOCOLS`) are ``snake12-paper``'s;
+:mod:`tendon_id.sim.effects`).  Options of ``stick_slip`` are withheld as effects of their own: the
+smooth edge of its band (``smooth_edge``, magnitude the edge's width) and the elastic tendon that
+drives its slip (``elastic_tendon``, magnitude the axial stiffness); their base is
+``capstan-nonsmooth``, with a sharp, tension-driven band.  ``start_state`` cuts the logs from one
+continuous session, so each inherits the state the unlogged motion before it left, where the base
+starts every log taut.  Null cases withhold nothing.  Other-form and out-of-library cases
+(:mod:`tendon_id.benchmarks.forms`) withhold an effect in a form no block takes, or physics no
+family covers.  The robot and the protocols (:data:`PROTOCOLS`) are ``snake12-paper``'s;
 the friction law is ``snake12-noise-only``'s, a feasible one (``B >= |A|``, :doc:`/guide/calibration`), since
 the paper's own law lies outside the family every base is calibrated in, which would be a
-second, unlabelled gap in every case.  Sessions start fresh so the base's forward-slip start
-is right: only the withheld effect separates truth and base.
+second, unlabelled gap in every case.  Sessions start fresh (but for ``start_state``) so the base's
+forward-slip start is right: only the withheld effect separates truth and base.
 """
 
 from __future__ import annotations
@@ -20,11 +22,13 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-import numpy as np
-
+from tendon_id.benchmarks.forms import OTHER_FORMS, OUT_OF_LIBRARY, family_of, form_settings, post_process
 from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
 from tendon_id.sim import EFFECT_NAMES, EFFECT_OPTIONS, EFFECT_TYPES, Effects, simulate
+from tendon_id.sim.sensor_chain import cell_errors
+
+__all__ = ["LIBRARY", "OTHER_FORMS", "OUT_OF_LIBRARY", "Case", "case_data", "case_recipe"]
 
 #: The base each withheld effect is diagnosed against: the paper's baseline, unless the effect is part of it.
 BASE_FOR = {"contact": "capstan-simple", "stick_slip": "capstan-contact"}
@@ -32,19 +36,15 @@ DEFAULT_BASE = "capstan-nonsmooth"
 #: The simulator effects of each base's structure.
 BASE_EFFECTS = {"capstan-simple": (), "capstan-contact": ("contact",), "capstan-nonsmooth": ("contact", "stick_slip")}
 MAGNITUDES = {"half": 0.5, "default": 1.0, "double": 2.0}
-#: Simulator effects that no candidate block models yet, so no case withholds them: candidate
-#: blocks come with the diagnosis issue.
-NO_BLOCK_YET = ("actuator_cells", "clock_skew", "load_cell_dynamics", "friction_drift")
-#: The effects a case may withhold that a candidate block models: the simulator's effects and
-#: the options the diagnosis names as effects of their own (``smooth_edge``).
-LIBRARY = tuple(e for e in EFFECT_NAMES if e not in NO_BLOCK_YET) + tuple(EFFECT_OPTIONS)
-#: Out-of-library effects (no candidate block models them).
-OUT_OF_LIBRARY = ("sensor_delay", "stribeck_dip")
-#: Transport delay of the terminal load cell's reading at default magnitude [s].
-SENSOR_DELAY_S = 0.4
-#: Stribeck dip of mu from static to kinetic friction at default magnitude [-], and its speed [m/s].
-STRIBECK_DROP = 0.25
-STRIBECK_SPEED = 0.002
+#: Simulator effects that no candidate block models, so no case withholds them (none left).
+NO_BLOCK_YET: tuple[str, ...] = ()
+#: The start state a continuous session leaves each logged trajectory in: a case "withholds" it by
+#: cutting its logs from one session (``session = "continuous"``), where the base starts every log taut.
+START_STATE = "start_state"
+#: The effects a case may withhold that a candidate block models: the simulator's effects, the
+#: options the diagnosis names as effects of their own (``smooth_edge``, ``elastic_tendon``) and
+#: the inherited start state.
+LIBRARY = tuple(e for e in EFFECT_NAMES if e not in NO_BLOCK_YET) + tuple(EFFECT_OPTIONS) + (START_STATE,)
 #: Protocols of a case (the training and test data each hold frames of both).  The paper's
 #: held-pose protocol holds the proximal joints at a 20 deg bend while the distal ones step
 #: and hold, so the effects that act through the wrap (a worn guide, each tendon's own wrap,
@@ -72,9 +72,10 @@ class Case:
 
     Attributes
     ----------
-    kind : {"single", "null", "out-of-library", "pair"}
+    kind : {"single", "null", "out-of-library", "other-form", "pair"}
     truth : tuple of str
-        Withheld effects (empty for null cases).
+        Withheld effects (empty for null cases); an other-form case's is ``family~form``
+        (:data:`tendon_id.benchmarks.forms.OTHER_FORMS`).
     magnitude : str
         ``half``, ``default`` or ``double``.
     seed : int
@@ -89,8 +90,13 @@ class Case:
     frames: int
 
     @property
+    def library(self) -> tuple[str, ...]:
+        """The withheld library effects at a block's own form, which an oracle refit models exactly."""
+        return tuple(e for e in self.truth if e in LIBRARY) if self.kind in ("single", "pair") else ()
+
+    @property
     def base(self) -> str:
-        bases = {BASE_FOR.get(e, DEFAULT_BASE) for e in self.truth}
+        bases = {BASE_FOR.get(family_of(e), DEFAULT_BASE) for e in self.truth}
         order = ["capstan-simple", "capstan-contact", DEFAULT_BASE]
         return min(bases, key=order.index) if bases else DEFAULT_BASE
 
@@ -117,6 +123,17 @@ def _scaled_effects(names: tuple[str, ...], scale: float) -> dict:
             params[name] = {"offset": p.offset * scale, "gain": p.gain * scale, "drift": p.drift * scale}
         elif name == "smooth_edge":  # magnitude: the edge's width, a fraction of the stick band
             params["stick_slip"] = {"edge": "smooth", "edge_width": d.get("stick_slip").edge_width * scale}
+        elif name == "elastic_tendon":  # magnitude: the axial stiffness, how far the tendon follows the joints
+            params["stick_slip"] = {"driver": "elastic", "EA": d.get("stick_slip").EA * scale}
+        elif name == "actuator_cells":  # drawn here once per case (case_recipe): training and test share cells
+            params[name] = {"gain_sd": p.gain_sd * scale, "offset_sd": p.offset_sd * scale}
+        elif name == "clock_skew":
+            params[name] = {"angles_s": p.angles_s * scale, "actuator_s": p.actuator_s * scale}
+            params[name]["terminal_s"] = p.terminal_s * scale
+        elif name == "load_cell_dynamics":
+            params[name] = {"tau_s": p.tau_s * scale}
+        elif name == "friction_drift":
+            params[name] = {"run_in_drop": p.run_in_drop * scale, "wear_rate_per_m": p.wear_rate_per_m * scale}
     return params
 
 
@@ -124,38 +141,24 @@ def case_recipe(case: Case):
     """The recipe whose truth the case simulates (``snake12-noise-only``: snake12-paper's robot, a feasible law)."""
     recipe = load_recipe("snake12-noise-only")
     scale = MAGNITUDES[case.magnitude]
-    lib = tuple(e for e in case.truth if e not in OUT_OF_LIBRARY)
+    lib = case.library
     enabled = BASE_EFFECTS[case.base] + tuple(e for e in lib if e in EFFECT_TYPES)  # an option is a setting
     params = _scaled_effects(lib, scale)
+    if "actuator_cells" in params:  # the robot's cells, the same in its training and test runs
+        cells = EFFECT_TYPES["actuator_cells"](**params["actuator_cells"])
+        gain, offset = cell_errors(case.seed, recipe.robot.n_modules, cells)
+        params["actuator_cells"] = {"gain": gain.tolist(), "offset": offset.tolist()}
+    for name in case.truth if case.kind == "other-form" else ():
+        on, settings = form_settings(name, scale, Effects())
+        enabled, params = enabled + on, {**params, **settings}
     robot = recipe.robot
     if "contact" in lib:  # magnitude: the clearance beyond the routing wrap
         robot = dataclasses.replace(robot, alpha_c=robot.alpha_0 + (robot.alpha_c - robot.alpha_0) * scale)
     if "per_tendon_wrap" in lib:  # magnitude: the hole radius, which spreads the tendons' wraps
         robot = dataclasses.replace(robot, hole_radius=robot.hole_radius * scale)
-    if "stribeck_dip" in case.truth:
-        enabled = enabled + ("velocity_friction",)
-        drop = STRIBECK_DROP * scale
-        params["velocity_friction"] = {"v_ref": 1e6, "stribeck_drop": drop, "v_stribeck": STRIBECK_SPEED}
-    return dataclasses.replace(recipe, session="fresh", robot=robot, effects=Effects(enabled=enabled, params=params))
-
-
-def _delayed(rec: Recording, delay_s: float) -> Recording:
-    """The terminal load cell's reading delayed by ``delay_s`` (held at its first value at each trajectory start)."""
-    lag = int(round(delay_s * rec.sample_rate_hz))
-    terminal = rec.terminal.copy()
-    starts = np.flatnonzero(rec.trajectory_starts).tolist() + [rec.n_frames]
-    for a, b in zip(starts[:-1], starts[1:]):
-        seg = rec.terminal[a:b]
-        terminal[a:b] = np.concatenate([np.repeat(seg[:1], min(lag, b - a), axis=0), seg[: max(b - a - lag, 0)]])
-    return Recording.from_arrays(
-        trajectory=rec.trajectory_ids,
-        t=rec.time,
-        angles=rec.angles,
-        actuator=rec.actuator,
-        terminal=terminal,
-        joint_truth=None,
-        meta=rec.meta,
-    )
+    # Fresh sessions, so the base's taut start is right, except where the start state is what is withheld.
+    session = "continuous" if START_STATE in case.truth else "fresh"
+    return dataclasses.replace(recipe, session=session, robot=robot, effects=Effects(enabled=enabled, params=params))
 
 
 def case_data(case: Case) -> tuple[list[Recording], list[Recording]]:
@@ -164,8 +167,8 @@ def case_data(case: Case) -> tuple[list[Recording], list[Recording]]:
 
     def make(seed: int, frames: int) -> list[Recording]:
         recs = [simulate(recipe, p, frames=frames, seed=seed).recording for p in PROTOCOLS]
-        if "sensor_delay" in case.truth:
-            recs = [_delayed(r, SENSOR_DELAY_S * MAGNITUDES[case.magnitude]) for r in recs]
+        for name in case.truth:  # forms the sensors add after the simulation (a delay, a backlash, interference)
+            recs = [post_process(r, name, MAGNITUDES[case.magnitude]) for r in recs]
         return recs
 
     return make(1000 + case.seed, case.frames), make(2000 + case.seed, TEST_RATIO * case.frames)

@@ -264,15 +264,29 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
         around = [layout.from_free(scan_start[i * p : (i + 1) * p]) for i in range(3)]
         law = np.stack([layout.random_feasible(rng, around[i]) for i in range(3)], axis=1)
         z_starts.append(np.r_[free0(law), rng.uniform(blo, bhi)])
+    # COBYLA's trust region only shrinks from its first step: a block parameter starting at its
+    # neutral 0 steps by its typical magnitude (the block's probe), not by a thousandth of its range.
+    # The geometry's start comes from its profile, so it keeps the default step.
+    probes = {b.name: b.probe for b in model.block_objects if not b.geometric}
+    typical = np.array([_typical(probes.get(bn, {}).get(q)) for bn, q in names], dtype=float).reshape(-1)
+    typical = np.minimum(typical, 0.25 * (bhi - blo))  # 0 where the block gives none
+    lb, ub = np.r_[np.tile(zlb, 3), blo], np.r_[np.tile(zub, 3), bhi]
+
+    def first_step(z):
+        step = np.maximum(0.1 * np.abs(z), 1e-3 * (ub - lb))  # minimize's default
+        step[3 * p :] = np.maximum(step[3 * p :], typical)
+        return step
+
     outs = [
         minimize(
             sse,
             z,
-            lb=np.r_[np.tile(zlb, 3), blo],
-            ub=np.r_[np.tile(zub, 3), bhi],
+            lb=lb,
+            ub=ub,
             xtol_rel=model.xtol_rel,
             ftol_rel=NONSMOOTH_FTOL,
             maxeval=model.maxeval * 3,
+            initial_step=first_step(z),
         )
         for z in z_starts[:starts]
     ]
@@ -280,6 +294,13 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     A, B, vals = unpack(best.x)
     theta = np.stack([layout.join(A[:, i], B[:, i]) for i in range(3)], axis=1)
     return theta, vals, best.status, geo_evals + base_fit.n_eval + sum(o.n_eval for o in outs), best.f
+
+
+def _typical(probe) -> float:
+    """A block parameter's typical magnitude from its probe (a number, or several time scales), else 0."""
+    if probe is None:
+        return 0.0
+    return float(np.max(np.abs(np.atleast_1d(np.asarray(probe, dtype=float)))))
 
 
 def calibrate(problem: LawProblem) -> CalibrationResult:

@@ -34,6 +34,7 @@ from tendon_id.diagnosis.settings import DiagnosisSettings
 from tendon_id.diagnosis.stats import gap_closed
 from tendon_id.diagnosis.verdict import decide
 from tendon_id.diagnosis.where import gap_map
+from tendon_id.errors import ConfigError
 from tendon_id.family.fit import Fit
 from tendon_id.family.registry import family_of
 
@@ -127,6 +128,10 @@ def diagnose(
     names = [n for n in names if n not in later]
     full_train = splits[0].train if test_recs is not None else heldout  # CV: the held-out folds are all of it
     blocks = family.candidates(base, full_train, names)
+    clash = [n for n, b in blocks.items() if not composes(base, [b])]
+    skipped.update({n: "does not compose with the base's blocks" for n in clash})
+    blocks = {n: b for n, b in blocks.items() if n not in clash}
+    names = [n for n in names if n not in clash]
     all_blocks = {**blocks, **{n: family.blocks[n]() for n in later}}
     structures = [base.with_blocks(b) for b in blocks.values()]
     starts = [[family.start(f.model) for f in base_score.fits] for _ in structures]
@@ -166,7 +171,8 @@ def diagnose(
     def remaining(chosen: list[str]) -> list[str]:
         have = in_base | {all_blocks[e].effect for e in chosen}
         out = [c.effect for c in ranked if c.effect not in chosen]
-        return out + [n for n in later if n not in chosen and eligible(family, n, have)]
+        out += [n for n in later if n not in chosen and eligible(family, n, have)]
+        return [n for n in out if composes(base, [all_blocks[e] for e in chosen] + [all_blocks[n]])]
 
     run = climb(
         ranked,
@@ -213,7 +219,7 @@ def diagnose(
 
 
 #: The metadata keys in which a simulated recording states its truth (:doc:`/guide/simulator`).
-TRUTH_KEYS = ("recipe", "effects", "effect_params", "friction_truth", "session")
+TRUTH_KEYS = ("recipe", "effects", "options", "effect_params", "friction_truth", "session")
 
 
 def simulator_truth(rec) -> dict | None:
@@ -222,6 +228,16 @@ def simulator_truth(rec) -> dict | None:
     if meta.get("friction_truth") is None:
         return None
     return {k: meta[k] for k in TRUTH_KEYS if k in meta}
+
+
+def composes(base, blocks: list) -> bool:
+    """Whether ``blocks`` can be added to ``base`` together (a block that acts on every guide at once, say,
+    does not compose with one that acts on one guide's output): the ladder does not try those that cannot."""
+    try:
+        base.with_blocks(*blocks).block_objects  # noqa: B018 - a model composes its blocks when they are read
+    except ConfigError:
+        return False
+    return True
 
 
 def eligible(family, effect: str, present: set) -> bool:

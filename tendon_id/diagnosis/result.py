@@ -12,7 +12,7 @@ import numpy as np
 
 from tendon_id.diagnosis.where import Stratum
 
-VERDICT_KINDS = ("none", "explained", "partial", "unexplained")
+VERDICT_KINDS = ("none", "explained", "partial", "family", "unexplained")
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ class Verdict:
     @property
     def label(self) -> str:
         """The effect named first, or the kind when none is named (the benchmark's confusion label)."""
-        return self.effects[0] if self.kind in ("explained", "partial") and self.effects else self.kind
+        return self.effects[0] if self.kind in ("explained", "partial", "family") and self.effects else self.kind
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "effects": list(self.effects), "remaining": self.remaining, "text": self.text}

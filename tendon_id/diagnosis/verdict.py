@@ -70,9 +70,12 @@ def decide(
       ladder's first rung nor its end lowers it by that margin on the same frames (every rung
       is a significant improvement; a first rung without free parameters needs only
       ``min_excess_structural``).
+    * ``family``: the first rung's block closes at least ``named_share`` of the gap, but only with a
+      parameter at the far edge of its plausible range: the effect is of that family in another
+      form (a drift that settles where the block's is linear, say), named with that warning.
     * ``unexplained``: a gap, and no candidate closes a significant part of it, or the ladder
-      closes less than ``named_share`` of it (a candidate that only mimics an effect outside
-      the library is not named).
+      closes less than ``named_share`` of it, or its strained first rung does (a candidate that
+      only mimics an effect outside the library is not named).
     * ``explained``: the ladder closes at least ``explained_share``, or what it leaves is
       within what the sensors alone give (the ``none`` rule applied to the ladder's error: the
       share closed is measured from the expected floor, and one realisation of the sensors
@@ -115,10 +118,22 @@ def decide(
         )
     if len(ladder) >= 2 and ladder[1].effects[-1] in strained:
         e = ladder[1].effects[-1]
+        closed = min(max(ladder[1].gap_closed, 0.0), 1.0)
+        if closed >= settings.named_share:
+            # A real effect rarely has a block's exact form: a family that closes most of the gap only at the
+            # edge of its range is named as the family, with its share and the warning that the form differs.
+            return Verdict(
+                "family",
+                [e],
+                1.0 - closed,
+                f"the {e} family, in another form: it closes {closed:.0%} of the gap, but only with its "
+                f"parameters at the edge of their plausible range, so the effect's form differs from the block's "
+                f"({1.0 - closed:.0%} remains)",
+            )
         return Verdict(
             "unexplained",
             [],
-            1.0 - min(max(ladder[1].gap_closed, 0.0), 1.0),
+            1.0 - closed,
             f"unexplained: the best candidate, {e}, closes {ladder[1].gap_closed:.0%} of the gap only by reaching "
             "the edge of its plausible range (physics outside the library?)",
         )

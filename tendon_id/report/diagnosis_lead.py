@@ -7,10 +7,11 @@ so the page can say whether the verdict found it; on real data it says what the 
 from __future__ import annotations
 
 from tendon_id.diagnosis.result import DiagnosisResult
-from tendon_id.report.truth import effect_words, truth_sentence
+from tendon_id.report.truth import effect_words, truth_names, truth_sentence
 
-#: Candidates that refine an effect of the simulator under another name (the stick–slip edge's width).
-REFINES = {"smooth_edge": "stick_slip"}
+#: Candidates that refine an effect of the simulator under another name (the stick–slip edge's width, the
+#: elastic tendon that drives the slip).
+REFINES = {"smooth_edge": "stick_slip", "elastic_tendon": "stick_slip"}
 
 
 def percent(x: float) -> str:
@@ -25,7 +26,7 @@ def in_base(result: DiagnosisResult) -> set[str]:
 
 def truth_rows(result: DiagnosisResult) -> list[list[object]]:
     """One row per effect of the truth or the library: in the truth, in the base, as a candidate, named."""
-    truth = set(result.truth["effects"]) if result.truth else set()
+    truth = truth_names(result.truth)
     base = in_base(result)
     cands = {c.effect: c for c in result.candidates}
     rows = []
@@ -75,7 +76,7 @@ def lead_sentences(result: DiagnosisResult) -> list[tuple[str, str]]:
         )
         return out
     out.append((truth_sentence(result.truth), "truth"))
-    truth = set(result.truth.get("effects") or [])
+    truth = truth_names(result.truth)
     missing = sorted(truth - in_base(result))
     closed = {c.effect: c.gap_closed for c in result.candidates}
     named = set(v.effects)

@@ -15,6 +15,8 @@ import numpy as np
 EFFECT_WORDS = {
     "contact": "the hole's contact gate",
     "stick_slip": "stick–slip (the play operator's hysteresis)",
+    "smooth_edge": "a smooth edge of the stick–slip band",
+    "elastic_tendon": "elastic tendons (joint motion drives slip)",
     "viscoelastic": "viscoelastic lag",
     "velocity_friction": "speed-dependent friction",
     "bending_stiffness": "bending stiffness",
@@ -74,6 +76,14 @@ def truth_effects(meta: Mapping) -> list[str] | None:
     if not meta or meta.get("friction_truth") is None:
         return None
     return list(meta.get("effects") or [])
+
+
+def truth_names(meta: Mapping | None) -> set[str]:
+    """What a diagnosis may name that the truth has: its effects and the options of them that were on
+    (``smooth_edge``, ``elastic_tendon``); empty for real data."""
+    if not meta:
+        return set()
+    return set(meta.get("effects") or []) | set(meta.get("options") or [])
 
 
 def truth_sentence(meta: Mapping) -> str | None:

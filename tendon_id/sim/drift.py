@@ -23,7 +23,7 @@ __all__ = ["drift_at", "drift_factors"]
 def drift_at(slid: NDArray, effect: FrictionDrift) -> NDArray[np.float64]:
     """Friction multiplier [-] of guides that have slid ``slid`` [m] in this session (before: ``prior_sliding_m``)."""
     return run_in_wear_factor(
-        slid + effect.prior_sliding_m, effect.run_in_drop, effect.run_in_length_m, effect.wear_rate_per_m
+        slid + effect.prior_sliding_m, effect.run_in_drop, effect.run_in_length_m, effect.wear_rate_per_m, effect.form
     )
 
 

@@ -18,8 +18,8 @@ from friction_models import SLACK_FLOOR_N
 from friction_models.elastic_chain import elastic_chain
 from tendon_id.geometry import RobotGeometry
 from tendon_id.sim.effects import Effects
-from tendon_id.sim.transmission_kernel import COMPILED, elastic_chain_frame, segment_length
-from tendon_id.sliding import segment_path_lengths
+from tendon_id.sim.transmission_kernel import COMPILED, elastic_chain_frame
+from tendon_id.sliding import segment_length, segment_path_lengths
 
 try:  # pragma: no cover - which branch runs depends on the install
     import numba

@@ -122,9 +122,10 @@ def sensor_signals(
     """
     truth: dict = {}
     if "load_cell_dynamics" in effects:
-        tau = effects.get("load_cell_dynamics").tau_s
-        actuator = first_order_lowpass(actuator, dt, tau, starts)
-        terminal = first_order_lowpass(terminal, dt, tau, starts)
+        cells = effects.get("load_cell_dynamics")
+        for _ in range(cells.order):  # order 2: two stages of half the time constant, the same mean delay
+            actuator = first_order_lowpass(actuator, dt, cells.tau_s / cells.order, starts)
+            terminal = first_order_lowpass(terminal, dt, cells.tau_s / cells.order, starts)
     if "clock_skew" in effects:
         skew = effects.get("clock_skew")
         theta = _skewed(theta, skew.angles_s, dt, starts)

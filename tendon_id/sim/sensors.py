@@ -50,7 +50,7 @@ class Sensors:
 
 
 def apply_sensor_bias(tension: NDArray, clock_s: NDArray, bias: SensorBias) -> NDArray:
-    """Terminal load-cell bias: ``(1 + gain) T + offset + drift * clock`` [N].
+    """Terminal load-cell bias: ``(1 + gain) T + offset + drift * clock`` [N] (or its warm-up form).
 
     Parameters
     ----------
@@ -58,4 +58,7 @@ def apply_sensor_bias(tension: NDArray, clock_s: NDArray, bias: SensorBias) -> N
     clock_s : ndarray, shape (T,)
         Session clock [s] (runs on across trajectories).
     """
-    return (1.0 + bias.gain) * tension + bias.offset + bias.drift * clock_s[:, None]
+    clock = np.asarray(clock_s, dtype=float)
+    if bias.drift_form == "warm_up":  # the same initial rate, settling over warm_up_s
+        clock = -bias.warm_up_s * np.expm1(-clock / bias.warm_up_s)
+    return (1.0 + bias.gain) * tension + bias.offset + bias.drift * clock[:, None]

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from tendon_id.checks import check_count
 from tendon_id.data import Recording
 from tendon_id.progress import progress_bar
-from tendon_id.sim.effects import Effects, parse_effect_names
+from tendon_id.sim.effects import EFFECT_OPTIONS, Effects, parse_effect_names
 from tendon_id.sim.motion import PathBuilder
 from tendon_id.sim.protocols import PROTOCOL_NAMES, PROTOCOLS, MotionContext, held_joint_count, held_pose
 from tendon_id.sim.recipe import Recipe
@@ -224,6 +224,8 @@ def simulate(
         "recipe": recipe.name,
         "recipe_fingerprint": recipe.fingerprint(),
         "effects": list(eff.enabled),
+        # The options of an effect that a diagnosis names as effects of their own (EFFECT_OPTIONS).
+        "options": [o for o in EFFECT_OPTIONS if eff.has(o)],
         "effect_params": eff.to_dict()["params"],
         "friction_truth": {"A": list(recipe.friction.A), "B": list(recipe.friction.B)},
         # Whether each logged trajectory inherits the hysteresis and lag state of unlogged motion before it.

@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from friction_models import SLACK_FLOOR_N
 from friction_models.elastic_chain import elastic_chain_frame
 from tendon_id.geometry import tendon_azimuths
-from tendon_id.sliding import backward_rate
+from tendon_id.sliding import backward_rate, segment_length
 
 try:  # pragma: no cover - which branch runs depends on the install
     import numba
@@ -58,16 +58,6 @@ GATE_NONE, GATE_HARD, GATE_DEAD_ZONE = 0, 1, 2
 def contact_mode(effects) -> int:
     """The pass's contact model for the ``contact`` effect's gate (it must be on)."""
     return GATE_DEAD_ZONE if effects.get("contact").gate == "dead_zone" else GATE_HARD
-
-
-def segment_length(geometry) -> float:
-    """Unstretched length [m] of a tendon segment between two guides: one module's pitch.
-
-    The friction of a guide is lumped at its link (:doc:`/guide/simulator`), so the elastic
-    segment between guides ``k`` and ``k + 1`` runs from the middle of link ``k`` to the middle
-    of link ``k + 1``: a link and a joint gap.  The last segment, to the anchor, is taken as long.
-    """
-    return float(geometry.link_length + geometry.joint_gap)
 
 
 def _turn_into(R, m, ux, uy, h):  # pragma: no cover - compiled

@@ -11,15 +11,21 @@ for the learned ones) only when that model is made or loaded.
 
 from tendon_id.zoo.base import NotFittedError, TransmissionModel
 from tendon_id.zoo.blocks import (
+    ActuatorCells,
     BendingStiffness,
     Block,
+    ClockSkew,
     ContactGate,
+    ElasticTendon,
+    FrictionDrift,
     GuideWear,
     Hysteresis,
+    LoadCellDynamics,
     PerTendonWrap,
     RoutingWrap,
     SensorBias,
     SmoothEdge,
+    StartState,
     VelocityFriction,
     ViscoelasticLag,
 )
@@ -30,18 +36,24 @@ from tendon_id.zoo.proximal import ProximalModel
 from tendon_id.zoo.registry import make, model_class, names, names_of, register, unregister
 
 __all__ = [
+    "ActuatorCells",
     "BendingStiffness",
     "Block",
     "CapstanModel",
+    "ClockSkew",
     "ContactGate",
+    "ElasticTendon",
+    "FrictionDrift",
     "GuideWear",
     "Hysteresis",
+    "LoadCellDynamics",
     "NotFittedError",
     "PerTendonWrap",
     "ProximalModel",
     "RoutingWrap",
     "SensorBias",
     "SmoothEdge",
+    "StartState",
     "TransmissionInputs",
     "TransmissionModel",
     "VelocityFriction",

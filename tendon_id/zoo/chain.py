@@ -6,7 +6,9 @@ exponent blocks' factors (paper Eqs. (4)–(6)); the guide's slip edges are
 slip (``ln T_out = ln T_in - phi``) unless a propagation block says otherwise (the
 play operator of the nonsmooth capstan); the output blocks act on what leaves the
 guide.  Everything is vectorised over frames, sets and tendons; the only Python loop
-runs over the guides, because guide ``k + 1`` is fed by guide ``k``.
+runs over the guides, because guide ``k + 1`` is fed by guide ``k``.  The chain starts from the
+actuator-side readings as the ``actuator`` blocks correct them (a cell's calibration error and lag
+undone), and the ``sensor`` blocks turn its terminal tension into the terminal cell's reading.
 """
 
 from __future__ import annotations
@@ -17,7 +19,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.errors import ConfigError
 from tendon_id.zoo.blocks import Block, HookContext
+
+#: Smallest tension [N] whose logarithm the chain takes from the actuator stage: an offset larger
+#: than a low reading, or a lag's inverse amplifying its noise, may give one at or below zero.
+FLOOR_N = 1e-3
 
 
 @dataclass(frozen=True)
@@ -80,6 +87,32 @@ def exponent(mu_law: str, terms: ExponentTerms, A: NDArray, B: NDArray) -> NDArr
     return phi
 
 
+def log_entering(blocks: Sequence[Block], inputs, values: dict, sets: NDArray, tendons: NDArray) -> NDArray:
+    """``ln T`` entering the chain, shape (T, S, m): the actuator-side readings through the ``actuator`` blocks.
+
+    The blocks undo the measurement chain in reverse physical order (:attr:`Block.measurement_order`).
+    Without one, the readings' logarithm is memoised per sets and tendons; with them, the last
+    result is kept per sets and tendons with the block values it was computed at (calibration
+    evaluates the chain thousands of times, often at the same block values).
+    """
+    key = f"log_in:{sets.tobytes().hex()}:{tendons.tobytes().hex()}"
+    undo = sorted((b for b in blocks if b.acts_at("actuator")), key=lambda b: -b.measurement_order)
+    if not undo:
+        return inputs.memo(key, lambda: inputs.log_actuator[:, sets][:, :, tendons])
+    state = repr([(b, sorted(values.get(b.name, {}).items())) for b in undo])
+    last = inputs.cache.get("actuator_" + key)
+    if last is None or last[0] != state:
+        ctx = HookContext(inputs, sets, tendons)
+        tension = inputs.actuator[:, sets][:, :, tendons]
+        for b in undo:
+            tension = b.actuator(tension, ctx, values.get(b.name, {}))
+        log_in = np.log(np.maximum(tension, FLOOR_N))
+        log_in.flags.writeable = False  # shared by the evaluations at these values
+        last = (state, log_in)
+        inputs.cache["actuator_" + key] = last  # one entry per sets and tendons: a fit does not fill memory
+    return last[1]
+
+
 def propagate_chain(
     blocks: Sequence[Block],
     mu_law: str,
@@ -101,21 +134,27 @@ def propagate_chain(
     if terms is None:
         terms = exponent_terms(blocks, inputs, values, sets, tendons)
     phi = exponent(mu_law, terms, A, B)  # (T, K, S|1, m)
-    key = f"log_in:{sets.tobytes().hex()}:{tendons.tobytes().hex()}"
-    log_in = inputs.memo(key, lambda: inputs.log_actuator[:, sets][:, :, tendons])  # (T, S, m)
+    log_in = log_entering(blocks, inputs, values, sets, tendons)  # (T, S, m)
     chain = np.full((inputs.n_frames, n) + log_in.shape[1:], np.nan) if keep_chain else None
     if keep_chain:
         chain[:, 0] = log_in
     edges = [b for b in blocks if b.stage == "edges"]
     prop = step_block(blocks)
     outputs = [b for b in blocks if b.stage == "guide_output"]
+    start = next((b for b in blocks if b.stage == "start"), None)
     if prop is not None and not edges and not outputs:
-        series = _series(prop, terms, phi, log_in, sets, values.get(prop.name, {}), keep_chain)
+        series = _series(prop, start, terms, phi, log_in, sets, values, keep_chain)
         if series is not None:
             final, guides = series
             if keep_chain:
                 chain[:, 1:] = guides
             return chain if keep_chain else final
+    if start is not None:
+        raise ConfigError(
+            f"the {start.name} block sets the state the compiled pass over the chain starts from; the "
+            f"{prop.name if prop is not None else 'missing'} step has no such pass",
+            param="blocks",
+        )
     log_t = log_in.copy()
     for g in range(n - 1):
         active = sets > g  # set j (index j-1) passes guide k = g + 1 iff k < j
@@ -143,13 +182,27 @@ def propagate_chain(
     return chain if keep_chain else log_t
 
 
-def _series(prop: Block, terms: ExponentTerms, phi: NDArray, log_t: NDArray, sets: NDArray, values: dict, keep: bool):
-    """The whole chain from the step block's :meth:`~Block.propagate_series`, reshaped; None if it has none."""
+def _series(
+    prop: Block,
+    start: Block | None,
+    terms: ExponentTerms,
+    phi: NDArray,
+    log_t: NDArray,
+    sets: NDArray,
+    values: dict,
+    keep: bool,
+):
+    """The whole chain from the step block's :meth:`~Block.propagate_series`, reshaped; None if it has none.
+
+    A ``start`` block gives the share of each band every column restarts at.
+    """
     t, s, m = log_t.shape
     k = phi.shape[1]
     n_pass = np.repeat(np.minimum(sets, k), m)  # set j (index j - 1) passes the guides k < j
     flat_phi = np.broadcast_to(phi, (t, k, s, m)).reshape(t, k, s * m)
-    out = prop.propagate_series(log_t.reshape(t, s * m), flat_phi, n_pass, terms.ctx, values, keep)
+    flat_in = log_t.reshape(t, s * m)
+    share = None if start is None else start.start(flat_in, flat_phi, n_pass, terms.ctx, values.get(start.name, {}))
+    out = prop.propagate_series(flat_in, flat_phi, n_pass, terms.ctx, values.get(prop.name, {}), keep, share)
     if out is None:
         return None
     final, chain = out
@@ -163,8 +216,11 @@ def step_block(blocks: Sequence[Block]) -> Block | None:
 
 
 def apply_sensor(blocks: Sequence[Block], tension: NDArray, ctx: HookContext, values: dict) -> NDArray:
-    """The sensor blocks on a predicted terminal reading [N], shape (T, m)."""
-    for b in blocks:
-        if b.stage == "sensor":
-            tension = b.sensor(tension, ctx, values.get(b.name, {}))
+    """The sensor blocks on a predicted terminal reading [N], shape (T, m).
+
+    In the physical order of a load cell's measurement chain (:attr:`Block.measurement_order`: the
+    cell's lag, the instant it is sampled at, its calibration), each order's blocks in the model's.
+    """
+    for b in sorted((b for b in blocks if b.acts_at("sensor")), key=lambda b: b.measurement_order):
+        tension = b.sensor(tension, ctx, values.get(b.name, {}))
     return tension

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import ClassVar
 
@@ -14,6 +14,7 @@ from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.family.inputs import FrameInputs
 from tendon_id.geometry import RobotGeometry, backbone_wrap
+from tendon_id.sliding import guide_sliding_distance
 
 
 def as_recordings(data: Recording | Sequence[Recording]) -> list[Recording]:
@@ -75,9 +76,13 @@ class TransmissionInputs(FrameInputs):
     geometry : RobotGeometry
         The robot: its sizes and azimuths.  Its ``alpha_0`` and ``alpha_c`` are the simulator's
         truth, which no model reads (the capstan models fit both).
+    slid : ndarray, shape (T, N-1)
+        Cumulative sliding distance through each guide [m] (:attr:`slid`), computed when first
+        read.  The constructor's ``_slid`` gives it where it is known from a larger whole; a
+        :meth:`subset` or :meth:`concat` carries it that way.
     """
 
-    frame_fields: ClassVar[tuple[str, ...]] = ("angles", "actuator", "terminal", "reset", "clock")
+    frame_fields: ClassVar[tuple[str, ...]] = ("angles", "actuator", "terminal", "reset", "clock", "_slid")
 
     angles: NDArray[np.float64]
     actuator: NDArray[np.float64]
@@ -86,6 +91,8 @@ class TransmissionInputs(FrameInputs):
     clock: NDArray[np.float64]
     dt: float
     geometry: RobotGeometry = field(compare=False)
+    # The sliding distance where these frames are part of a whole that knows it (a subset's), else None.
+    _slid: NDArray[np.float64] | None = field(default=None, compare=False, repr=False)
     cache: dict = field(default_factory=dict, init=False, compare=False, repr=False)
 
     @property
@@ -108,6 +115,52 @@ class TransmissionInputs(FrameInputs):
         """
         return np.minimum(self.bend_wrap + float(alpha_0), np.pi)
 
+    @property
+    def slid(self) -> NDArray[np.float64]:
+        """Cumulative mean sliding distance through each guide [m], shape (T, N-1), read-only.
+
+        :func:`tendon_id.sliding.guide_sliding_distance` of the measured angles over all frames
+        in order, :attr:`reset` as its reset (no motion into a trajectory's first frame): the
+        distance only grows, across the trajectories of a recording, and restarts with each
+        recording (a session, as :attr:`clock` does).  It starts at 0 on a session's first
+        frame; what was slid before is unknown
+        (the ``friction_drift`` block's ``prior_sliding_m``).  Computed when first read (about
+        0.3 s for 50 000 frames of 12 modules, several times :meth:`from_recordings` itself),
+        except where given: a part cut by :meth:`subset` keeps the whole's values, so held-out
+        frames do not restart from 0.
+        """
+        if self._slid is not None:
+            return self._slid
+        return self.memo("slid", self._sliding_distance)
+
+    def _sliding_distance(self) -> NDArray[np.float64]:
+        slid = guide_sliding_distance(self.angles, self.reset, self.geometry, self.dt)
+        # Each recording is a session, as for the clock (and the simulator): the distance restarts
+        # where the clock does. A reset frame has no motion into it, so subtracting the distance at
+        # the session's first frame restarts it at 0 there.
+        starts = np.flatnonzero(np.r_[True, self.clock[1:] <= self.clock[:-1]])
+        lengths = np.diff(np.r_[starts, len(self.clock)])
+        slid = slid - np.repeat(slid[starts], lengths, axis=0)
+        slid.flags.writeable = False  # shared by every part cut from these inputs
+        return slid
+
+    def _with_slid(self) -> TransmissionInputs:
+        """These inputs with :attr:`slid` as a field, so that cutting or stacking keeps it."""
+        return self if self._slid is not None else replace(self, _slid=self.slid)
+
+    def subset(self, mask: NDArray) -> TransmissionInputs:
+        """The frames of ``mask`` (whole trajectories), with the whole's sliding distance (:attr:`slid`).
+
+        The distance runs over all of these inputs: recomputed on the part, a held-out
+        trajectory would restart from 0.
+        """
+        return FrameInputs.subset(self._with_slid(), mask)
+
+    @classmethod
+    def concat(cls, parts: Sequence[TransmissionInputs]) -> TransmissionInputs:
+        """Inputs stacked in time, each part's sliding distance (:attr:`slid`) kept as the part has it."""
+        return super().concat([p._with_slid() for p in parts])
+
     @cached_property
     def log_actuator(self) -> NDArray[np.float64]:
         """``ln T[0, j, i]`` [ln N], shape (T, N, 3) (cached: the chain starts from it at every evaluation)."""
@@ -120,7 +173,8 @@ class TransmissionInputs(FrameInputs):
         """Stack recordings (trajectories kept apart by ``reset``).
 
         Only angles, actuator-side tensions and the terminal labels are read, never
-        intermediate joint-side truth.
+        intermediate joint-side truth.  The clock and the sliding distance (:attr:`slid`) restart
+        with each recording, a session.
         """
         recs = as_recordings(data)
         geometry = robot_of(recs, robot)

@@ -1,16 +1,19 @@
 """The withheld-effect benchmark: its cases, its summary, and its jobs on a Dask cluster."""
 
+import numpy as np
 import pytest
 
 from tendon_id.benchmarks.diagnosis import benchmark_cases, run_cases, summarise
-from tendon_id.benchmarks.withheld import LIBRARY, Case, case_recipe
+from tendon_id.benchmarks.withheld import LIBRARY, OTHER_FORMS, Case, case_recipe
 
 
 def test_quick_and_full_cases_cover_every_kind():
     quick = benchmark_cases(quick=True)
     assert {c.truth[0] for c in quick if c.kind == "single"} == set(LIBRARY)  # every effect, and the smooth edge
-    assert {c.kind for c in quick} == {"single", "null", "out-of-library", "pair"}
+    assert {c.kind for c in quick} == {"single", "null", "out-of-library", "other-form", "pair"}
     full = benchmark_cases()
+    assert {c.truth[0] for c in full if c.kind == "other-form"} == set(OTHER_FORMS)
+    assert len(OTHER_FORMS) >= 3  # at least three families in a form their block does not take
     singles = [c for c in full if c.kind == "single"]
     assert len({c.seed for c in singles}) >= 5
     assert {c.magnitude for c in singles} == {"half", "default", "double"}
@@ -25,6 +28,28 @@ def test_case_truth_is_the_base_structure_plus_the_withheld_effect():
     assert recipe.effects.get("viscoelastic").kappa == pytest.approx(0.08)  # twice the default 0.04
     assert case_recipe(Case("single", ("contact",), "half", 0, 100)).effects.enabled == ("contact",)
     assert case_recipe(Case("null", (), "default", 0, 100)).effects.enabled == ("contact", "stick_slip")
+
+
+def test_each_new_case_kind_simulates_what_it_says():
+    # the start state: the logs are cut from one session
+    assert case_recipe(Case("single", ("start_state",), "default", 0, 100)).session == "continuous"
+    # the elastic tendon: an option of stick_slip, at twice the default stiffness
+    r = case_recipe(Case("single", ("elastic_tendon",), "double", 0, 100))
+    assert r.effects.get("stick_slip").driver == "elastic" and r.effects.get("stick_slip").EA == pytest.approx(7e4)
+    # actuator cells: drawn once per case, the same in the training and the test runs
+    c = Case("single", ("actuator_cells",), "default", 3, 100)
+    assert case_recipe(c).effects.get("actuator_cells").gain == case_recipe(c).effects.get("actuator_cells").gain
+    assert np.std(case_recipe(c).effects.get("actuator_cells").gain) > 0
+    # other forms switch their family on in the other form
+    forms = {
+        "sensor_bias~warm_up": ("sensor_bias", "drift_form", "warm_up"),
+        "load_cell_dynamics~second_order": ("load_cell_dynamics", "order", 2),
+        "friction_drift~hyperbolic": ("friction_drift", "form", "hyperbolic"),
+    }
+    for name, (effect, setting, value) in forms.items():
+        r = case_recipe(Case("other-form", (name,), "default", 0, 100))
+        assert effect in r.effects.enabled and getattr(r.effects.get(effect), setting) == value, name
+        assert Case("other-form", (name,), "default", 0, 100).library == ()  # no oracle refit: no block has it
 
 
 def _row(kind, truth, label, ladder=(), mag="default", base=10.0, final=2.0, oracle=None):

@@ -202,8 +202,12 @@ def test_verdict_rules_by_hand():
     assert decide(25.0, floor, (20.0, 30.0), [base, half], s).kind == "partial"
     low = Rung(["base", "bending_stiffness"], 4.5, 0.3)
     assert decide(25.0, floor, (20.0, 30.0), [base, low], s).kind == "unexplained"
-    # A strained first rung is not named; a strained later rung is cut off.
-    assert decide(25.0, floor, (20.0, 30.0), [base, one, two], s, {"viscoelastic"}).kind == "unexplained"
+    # A strained first rung that closes most of the gap is named as a family in another form; one that
+    # closes less is not named; a strained later rung is cut off.
+    v = decide(25.0, floor, (20.0, 30.0), [base, one, two], s, {"viscoelastic"})
+    assert (v.kind, v.effects, v.label) == ("family", ["viscoelastic"], "viscoelastic")
+    assert "another form" in v.text and "95%" in v.text
+    assert decide(25.0, floor, (20.0, 30.0), [base, low], s, {"bending_stiffness"}).kind == "unexplained"
     v = decide(25.0, floor, (20.0, 30.0), [base, one, two], s, {"sensor_bias"})
     assert v.effects == ["viscoelastic"]
 

@@ -11,10 +11,14 @@ from __future__ import annotations
 from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.blocks.base import BLOCK_TYPES, BLOCKS, EFFECT_BLOCKS, STAGES, Block, HookContext
+from tendon_id.zoo.blocks.drift import FrictionDrift
+from tendon_id.zoo.blocks.elastic import ElasticTendon
 from tendon_id.zoo.blocks.exponent import ContactGate, GuideWear, VelocityFriction
 from tendon_id.zoo.blocks.geometric import RoutingWrap
 from tendon_id.zoo.blocks.output import SensorBias, ViscoelasticLag
+from tendon_id.zoo.blocks.sensors import ActuatorCells, ClockSkew, LoadCellDynamics
 from tendon_id.zoo.blocks.slip import BendingStiffness, Hysteresis, SmoothEdge
+from tendon_id.zoo.blocks.start import StartState
 from tendon_id.zoo.blocks.wrap import PerTendonWrap
 
 __all__ = [
@@ -22,16 +26,22 @@ __all__ = [
     "BLOCK_TYPES",
     "EFFECT_BLOCKS",
     "STAGES",
+    "ActuatorCells",
     "BendingStiffness",
     "Block",
+    "ClockSkew",
     "ContactGate",
+    "ElasticTendon",
+    "FrictionDrift",
     "GuideWear",
     "HookContext",
     "Hysteresis",
+    "LoadCellDynamics",
     "PerTendonWrap",
     "RoutingWrap",
     "SensorBias",
     "SmoothEdge",
+    "StartState",
     "VelocityFriction",
     "ViscoelasticLag",
     "as_block",
@@ -67,8 +77,9 @@ def compose(blocks) -> tuple[Block, ...]:
     """The blocks of one model (blocks, names or dicts), checked to compose.
 
     A block needs the blocks of the effects it refines; a model has at most one propagation block
-    (hysteresis) and one that refines it, at most one wrap block, and each block once (so one
-    routing block).
+    (hysteresis) and one that refines it, at most one wrap block and one start block, no block
+    acting guide by guide on edges or outputs beside a whole-chain block (:attr:`Block.whole_chain`),
+    and each block once (so one routing block).
 
     Raises
     ------
@@ -87,6 +98,24 @@ def compose(blocks) -> tuple[Block, ...]:
     if sum(not b.requires for b in propagate) > 1 or sum(bool(b.requires) for b in propagate) > 1:
         raise ConfigError(
             "a model can have at most one propagation block (hysteresis), and one that refines it", param="blocks"
+        )
+    if any(b.whole_chain for b in out) and any(b.stage in ("edges", "guide_output") for b in out):
+        whole = ", ".join(b.name for b in out if b.whole_chain)
+        per_guide = ", ".join(b.name for b in out if b.stage in ("edges", "guide_output"))
+        raise ConfigError(
+            f"{whole} acts on every guide of a tendon at once; it does not compose with blocks that act on one "
+            f"guide's edges or output ({per_guide})",
+            param="blocks",
+        )
+    if sum(b.stage == "start" for b in out) > 1:
+        raise ConfigError("a model can have at most one start block", param="blocks")
+    step = next((b for b in propagate if b.requires), propagate[0] if propagate else None)
+    start = next((b for b in out if b.stage == "start"), None)
+    if start is not None and (step is None or type(step).propagate_series is Block.propagate_series):
+        raise ConfigError(
+            f"{start.name} sets the state the pass over the whole chain starts from; the "
+            f"{step.name if step is not None else 'model'}'s step has no such pass",
+            param="blocks",
         )
     if sum(b.stage == "wrap" for b in out) > 1:
         raise ConfigError("a model can have at most one wrap block", param="blocks")

@@ -1,27 +1,39 @@
 """The block contract: stages, the context a hook sees, and self-registration.
 
 A capstan model propagates ``ln T`` of each tendon through the guides, proximal to
-distal (paper Algorithm 1 with analytic ratios).  A block acts at one stage, and
-every block of a stage has the same hook (``values`` holds the block's parameters,
-``{param: value}``; ``ctx`` is a :class:`HookContext`):
+distal (paper Algorithm 1 with analytic ratios).  A block acts at one stage (and at
+the stages of :attr:`Block.also`, for one effect seen in two places: a load cell's lag on the
+actuator-side and terminal cells), and every block of a stage has the same hook (``values`` holds
+the block's parameters, ``{param: value}``; ``ctx`` is a :class:`HookContext`):
 
 ==================  =========================================  ==============================
 stage               hook                                       what it changes
 ==================  =========================================  ==============================
+``actuator``        ``actuator(t, ctx, values) -> t``          the tensions entering the chain
+                                                               [N], from the actuator-side
+                                                               readings
 ``wrap``            ``wrap(alpha, ctx, values) -> alpha``      the wrap the law sees
 ``routing``         ``routing(alpha, ctx, values) -> alpha``   the routing wrap added to it
 ``exponent``        ``exponent(phi, ctx, values) -> phi``      the capstan exponent; linear in
                                                                ``phi`` (a friction multiplier)
 ``edges``           ``edges(lo, hi, ctx, values) -> lo, hi``   a guide's slip edges
+``start``           ``start(log_in, phi, n_pass, ctx,          the share of each guide's band
+                    values) -> share``                         a trajectory starts at (default
+                                                               0: taut, forward slip)
 ``propagate``       ``propagate(lo, hi, ctx, values) -> y``    the step between the edges
                                                                (default: forward slip, ``lo``)
 ``guide_output``    ``guide_output(y, ctx, values) -> y``      the tension leaving a guide
 ``sensor``          ``sensor(t, ctx, values) -> t``            the terminal reading [N]
 ==================  =========================================  ==============================
 
-The ``wrap``, ``routing`` and ``exponent`` stages act on arrays over all guides, shape
-``(T, K, S, m)`` (or broadcastable: ``(T, K, 1, 1)`` when every set and tendon sees
-the backbone wrap); the three per-guide stages see one guide, ``ctx.guide``, and
+The ``actuator`` stage sees the actuator-side readings of the propagated sets and tendons,
+``ctx.sets`` and ``ctx.tendons``, shape ``(T, S, m)``, and the ``sensor`` stage the predicted
+terminal reading, shape ``(T, m)``.  Both are a load cell's measurement chain, whose blocks
+run in the physical order :attr:`Block.measurement_order` gives: the sensor stage applies
+the cell's lag, then its sampling instant, then its calibration; the actuator stage undoes
+them in reverse.  The ``wrap``, ``routing`` and ``exponent`` stages act on arrays over all
+guides, shape ``(T, K, S, m)`` (or broadcastable: ``(T, K, 1, 1)`` when every set and tendon
+sees the backbone wrap); the three per-guide stages see one guide, ``ctx.guide``, and
 arrays of shape ``(T, S_g, m)`` for the sets that pass it.  The wrap stage starts from the
 joints' part of the backbone wrap (``|theta_k| / 2 + |theta_{k+1}| / 2``); the routing wrap,
 which no user measures, is a fitted parameter of the routing stage
@@ -50,7 +62,7 @@ from numpy.typing import NDArray
 
 from tendon_id.family.blocks import BlockRegistry, EffectBlock
 
-STAGES = ("wrap", "routing", "exponent", "edges", "propagate", "guide_output", "sensor")
+STAGES = ("actuator", "wrap", "routing", "exponent", "edges", "start", "propagate", "guide_output", "sensor")
 
 #: The snake chain's blocks, filled as each block class is defined.
 BLOCKS = BlockRegistry("snake")
@@ -107,6 +119,18 @@ class Block(EffectBlock):
         The simulator effect it models (:doc:`/guide/simulator`), or None.
     stage : str
         One of :data:`STAGES`.
+    also : tuple of str
+        Further stages the block acts at, with their hooks (class attribute): one effect seen in
+        two places (a load cell's lag, undone on the actuator-side readings and applied to the
+        terminal one).
+    measurement_order : int
+        Where the effect sits in a load cell's measurement chain (class attribute), for the
+        ``actuator`` and ``sensor`` stages: 0 the cell's lag, 1 the instant it is sampled at, 2
+        its calibration (the default).  Ties keep the model's order.
+    whole_chain : bool
+        The block acts on every guide of a tendon at once, through the compiled pass over the
+        chain (:meth:`propagate_series`), never guide by guide (class attribute): a model with it
+        has no ``edges`` or ``guide_output`` block.
     per_tendon : bool
         The block's factor differs by set or tendon (it cannot enter the linear design
         of :class:`~tendon_id.calibration.problem.LawProblem`).
@@ -132,6 +156,9 @@ class Block(EffectBlock):
     registry: ClassVar[BlockRegistry] = BLOCKS
     stages: ClassVar[tuple[str, ...]] = STAGES
     stage: ClassVar[str] = "exponent"
+    also: ClassVar[tuple[str, ...]] = ()
+    measurement_order: ClassVar[int] = 2
+    whole_chain: ClassVar[bool] = False
     per_tendon: ClassVar[bool] = False
     geometric: ClassVar[bool] = False
     param_names: tuple[str, ...] = ()
@@ -139,14 +166,32 @@ class Block(EffectBlock):
     probe: dict = field(default_factory=dict, compare=False, repr=False)
     fixed: bool = False
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        wrong = [s for s in cls.also if s not in cls.stages or s == cls.stage]
+        if wrong:
+            raise TypeError(f"block {cls.name!r} also acts at {wrong}: each must be another of {', '.join(cls.stages)}")
+
+    def acts_at(self, stage: str) -> bool:
+        """Whether the block has a hook at ``stage``: its own, or one of :attr:`also`."""
+        return stage == self.stage or stage in self.also
+
     def propagate_series(
-        self, log_in: NDArray, phi: NDArray, n_pass: NDArray, ctx, values: dict, keep_chain: bool
+        self,
+        log_in: NDArray,
+        phi: NDArray,
+        n_pass: NDArray,
+        ctx,
+        values: dict,
+        keep_chain: bool,
+        start: NDArray | None = None,
     ) -> tuple[NDArray, NDArray | None] | None:
         """Optional, for a ``propagate`` block: every guide at once, when no other per-guide block acts.
 
         ``log_in`` (T, M) enters the first guide, ``phi`` (T, K, M) is each guide's exponent,
-        column ``j`` passes ``n_pass[j]`` guides; returns ``(final (T, M), chain (T, K, M) or
-        None)`` as :func:`friction_models.kernels.play_series`.  The default, None, makes the
+        column ``j`` passes ``n_pass[j]`` guides, and ``start`` (T, M), where a ``start`` block
+        gives it, the share of each band a column restarts at; returns ``(final (T, M), chain
+        (T, K, M) or None)`` as :func:`friction_models.kernels.play_series`.  The default, None, makes the
         chain call :meth:`propagate` guide by guide.  Whatever a block returns here must equal
         what its guide-by-guide steps give.
         """

@@ -29,9 +29,9 @@ class Hysteresis(Block):
     def propagate(self, lo: NDArray, hi: NDArray, ctx, values: dict) -> NDArray:
         return play_output(lo, hi, ctx.inputs.reset)
 
-    def propagate_series(self, log_in, phi, n_pass, ctx, values, keep_chain):
+    def propagate_series(self, log_in, phi, n_pass, ctx, values, keep_chain, start=None):
         # One compiled pass over frames for all guides in series, the same bits as guide by guide.
-        return play_series(log_in, phi, n_pass, ctx.inputs.reset, keep_chain)
+        return play_series(log_in, phi, n_pass, ctx.inputs.reset, keep_chain, start)
 
 
 @dataclass(frozen=True)

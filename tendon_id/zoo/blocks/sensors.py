@@ -1,0 +1,229 @@
+"""Blocks on the load cells' measurement chain: calibration, sampling instant and lag (:doc:`/guide/simulator`).
+
+The simulator's three sensor-chain effects (:mod:`tendon_id.sim.sensor_chain`) act on the logged
+streams only, never on the physics; each block here models one of them with the simulator's own
+functions (:mod:`friction_models.load_cell`), so that with the true settings the model reads what
+the simulator logs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from friction_models import first_order_lowpass, shifted_read
+from tendon_id.errors import ConfigError
+from tendon_id.zoo.blocks.base import Block
+
+__all__ = ["ActuatorCells", "ClockSkew", "LoadCellDynamics", "unlag"]
+
+#: Tendons whose cells :class:`ActuatorCells` calibrates, 1-based as in its parameter names.
+_TENDONS = (1, 2, 3)
+
+
+def _finite(block: str, name: str, value) -> float:
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        out = np.nan
+    if not np.isfinite(out):
+        raise ConfigError(f"{block}.{name} must be a finite number, got {value!r}")
+    return out
+
+
+@dataclass(frozen=True)
+class ActuatorCells(Block):
+    """Gain and offset errors of the actuator-side load cells (:doc:`/guide/simulator` ``actuator_cells``).
+
+    The cell of tendon ``i`` reads ``(1 + g_i) T + o_i`` (:func:`friction_models.gain_offset`);
+    the block inverts it, ``T = (reading - o_i) / (1 + g_i)``, before the chain takes the
+    logarithm.  The simulator draws one error per cell, set ``j`` and tendon ``i``; the block
+    has one per tendon, applied to every set's cells alike.  The terminal labels see only the
+    terminal set's cells (the chain of the last set), so a fit on them recovers that set's
+    errors, and the joint-side predictions of the other sets read through those too.
+
+    Parameters
+    ----------
+    gain_1, gain_2, gain_3 : float
+        Relative gain (span) error of tendon 1, 2, 3's cells [-], ``> -1``.  Default 0.
+    offset_1, offset_2, offset_3 : float
+        Zero offset of tendon 1, 2, 3's cells [N].  Default 0.
+    """
+
+    name = "actuator_cells"
+    effect = "actuator_cells"
+    stage = "actuator"
+    per_tendon = True
+    regressor = "the actuator tension and a constant, per tendon: residual affine in the input, no trend in time"
+    gain_1: float = 0.0
+    gain_2: float = 0.0
+    gain_3: float = 0.0
+    offset_1: float = 0.0
+    offset_2: float = 0.0
+    offset_3: float = 0.0
+    param_names: tuple[str, ...] = tuple(f"gain_{i}" for i in _TENDONS) + tuple(f"offset_{i}" for i in _TENDONS)
+    # The bounds hold ten of the simulator's default spreads (gain_sd 0.01, offset_sd 2 N) and more.
+    bounds: dict = field(
+        default_factory=lambda: {
+            **{f"gain_{i}": (-0.2, 0.2) for i in _TENDONS},
+            **{f"offset_{i}": (-30.0, 30.0) for i in _TENDONS},
+        }
+    )
+    probe: dict = field(
+        default_factory=lambda: {**{f"gain_{i}": 0.01 for i in _TENDONS}, **{f"offset_{i}": 2.0 for i in _TENDONS}},
+        compare=False,
+        repr=False,
+    )
+
+    def __post_init__(self) -> None:
+        for p in self.param_names:
+            object.__setattr__(self, p, _finite(self.name, p, getattr(self, p)))
+            if p.startswith("gain") and not getattr(self, p) > -1.0:
+                raise ConfigError(f"{self.name}.{p} must be > -1 (a cell that reads its load), got {getattr(self, p)}")
+
+    def actuator(self, tension: NDArray, ctx, values: dict) -> NDArray:
+        # ctx.tendons picks each propagated tendon's cell; the set axis shares it.
+        gain = np.array([values[f"gain_{i + 1}"] for i in ctx.tendons], dtype=float)
+        offset = np.array([values[f"offset_{i + 1}"] for i in ctx.tendons], dtype=float)
+        if np.any(gain <= -1.0):
+            raise ConfigError(f"{self.name}: a gain error must be > -1, got {gain.tolist()}")
+        return (tension - offset) / (1.0 + gain)
+
+
+@dataclass(frozen=True)
+class ClockSkew(Block):
+    """The terminal cells' stream sampled off the input streams' clock (:doc:`/guide/simulator` ``clock_skew``).
+
+    The simulator logs at frame time ``t`` the signal of ``t + delta_s`` for stream ``s``
+    (angles, actuator, terminal), by linear interpolation within each trajectory, held beyond its
+    ends (:func:`friction_models.shifted_read`).  The model's inputs are the angle and actuator
+    streams, so it predicts the terminal tension at their instant; the block reads that
+    prediction at ``t + skew_s``, ``skew_s / dt`` frames off (fractions allowed, within each
+    trajectory).  The simulator's setting is modelled by ``skew_s = terminal_s - delta_in`` when the
+    angle and actuator streams share a skew ``delta_in``: exactly for ``delta_in = 0`` (its default,
+    ``terminal_s = -0.05`` with the others 0, is ``skew_s = -0.05``, the terminal reading half a
+    10 Hz frame old), else up to the trajectories' ends, where the streams are held, and the
+    interpolation of a fraction of a frame.
+
+    Parameters
+    ----------
+    skew_s : float
+        Time offset of the terminal stream relative to the input streams [s]: positive, the
+        terminal cells read later than their time stamp says.  Default 0.
+    """
+
+    name = "clock_skew"
+    effect = "clock_skew"
+    stage = "sensor"
+    measurement_order = 1  # the acquisition samples the lagged signal, the calibration maps the sample
+    regressor = "the rate of change of the predicted terminal tension: residual grows with speed"
+    skew_s: float = 0.0
+    param_names: tuple[str, ...] = ("skew_s",)
+    bounds: dict = field(default_factory=lambda: {"skew_s": (-1.0, 1.0)})
+    probe: dict = field(default_factory=lambda: {"skew_s": 0.05}, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "skew_s", _finite(self.name, "skew_s", self.skew_s))
+
+    def sensor(self, tension: NDArray, ctx, values: dict) -> NDArray:
+        skew = float(values["skew_s"])
+        if skew == 0.0:
+            return tension
+        shift = skew / ctx.inputs.dt
+        if abs(shift - round(shift)) < 1e-9:  # as the simulator: a whole number of frames is an exact shift
+            shift = float(round(shift))
+        return shifted_read(tension, shift, ctx.inputs.reset)
+
+
+@dataclass(frozen=True)
+class LoadCellDynamics(Block):
+    """First-order lag of every load cell (:doc:`/guide/simulator` ``load_cell_dynamics``).
+
+    Each cell reads ``y[t] = a y[t-1] + (1 - a) T[t]``, ``a = exp(-dt / tau_s)``, started settled
+    (``y = T``) at each trajectory's first frame (:func:`friction_models.first_order_lowpass`).
+    The block undoes the lag on the actuator-side readings (:func:`unlag`, the filter's exact
+    inverse) and applies it to the predicted terminal reading; ``tau_s = 0`` is no lag, exactly,
+    at both.  First order only: the simulator's two-stage form (``order = 2``) is not this block's.
+
+    The inverse amplifies the readings' noise by about ``1 / (1 - exp(-dt / tau_s))`` (1.6 at the
+    simulator's default, 0.1 s at 10 Hz; 3.5 at 0.3 s; 20 at 2 s), and a stick/slip model ratchets
+    on it: with the simulator's 1 N noise, the block at the true lag and law predicted the
+    held-out terminal reading worse than no block at all (0.1 s: 2.0 against 1.6 N RMSE), and a fit
+    settles below the true lag.  With less noise it pays: at 0.2 N and a 0.3 s lag, a fit with it
+    predicted to 0.6 N RMSE, capstan-nonsmooth without it to 2.6-3.1 N.
+
+    Parameters
+    ----------
+    tau_s : float
+        Time constant [s], ``>= 0``.  Default 0.
+    """
+
+    name = "load_cell_dynamics"
+    effect = "load_cell_dynamics"
+    stage = "actuator"
+    also = ("sensor",)
+    measurement_order = 0  # the cell and its amplifier filter the force before anything else
+    regressor = "the rate of tension change, at the cell's time scale: residual lags the terminal tension"
+    tau_s: float = 0.0
+    param_names: tuple[str, ...] = ("tau_s",)
+    bounds: dict = field(default_factory=lambda: {"tau_s": (0.0, 2.0)})
+    probe: dict = field(default_factory=lambda: {"tau_s": 0.1}, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        tau = _finite(self.name, "tau_s", self.tau_s)
+        if tau < 0:
+            raise ConfigError(f"{self.name}.tau_s must be a time >= 0 in s, got {tau}")
+        object.__setattr__(self, "tau_s", tau)
+
+    def actuator(self, tension: NDArray, ctx, values: dict) -> NDArray:
+        return unlag(tension, ctx.inputs.dt, _tau(values), ctx.inputs.reset)
+
+    def sensor(self, tension: NDArray, ctx, values: dict) -> NDArray:
+        tau = _tau(values)
+        return tension if tau == 0.0 else first_order_lowpass(tension, ctx.inputs.dt, tau, ctx.inputs.reset)
+
+
+def _tau(values: dict) -> float:
+    tau = float(values["tau_s"])
+    if not tau >= 0:
+        raise ConfigError(f"load_cell_dynamics.tau_s must be a time >= 0 in s, got {tau}")
+    return tau
+
+
+def unlag(y: NDArray, dt: float, tau: float, reset: NDArray | None = None) -> NDArray:
+    """The input of :func:`friction_models.first_order_lowpass` from its output: the lag undone.
+
+    ``x[t] = (y[t] - a y[t-1]) / (1 - a)``, ``a = exp(-dt / tau)``, and ``x = y`` at each reset,
+    where the filter starts settled on its input.  ``tau = 0`` returns ``y`` itself.
+
+    Parameters
+    ----------
+    y : ndarray, shape (T, ...)
+        Lagged signal, time on axis 0.
+    dt : float
+        Sample period [s], ``> 0``.
+    tau : float
+        Time constant [s], ``>= 0``.
+    reset : ndarray of bool, shape (T,), optional
+        True at the first frame of each segment; frame 0 always is.
+
+    Returns
+    -------
+    ndarray, shape (T, ...)
+    """
+    if tau == 0.0:
+        return y
+    if not (dt > 0 and tau > 0):
+        raise ValueError("dt and tau must be positive times in s")
+    y = np.asarray(y, dtype=float)
+    a = np.exp(-dt / tau)
+    x = y.copy()
+    x[1:] -= a * y[:-1]
+    x[1:] /= 1.0 - a
+    if reset is not None:
+        r = np.asarray(reset, dtype=bool)
+        x[r] = y[r]
+    x[:1] = y[:1]
+    return x
