@@ -94,8 +94,9 @@ if files:
 # candidate block, ranks them by held-out RMSE, tests each improvement with a block bootstrap
 # over time, and climbs a ladder of significant effects. Three candidates keep this example
 # short: the command ``tendon-id diagnose --base passage-capstan --mapping
-# mis-tool-characterization`` tries all five, and on this split adds ``smooth_edge`` (slip
-# spreading along the wrap) as a third rung, to 0.00267 N m.
+# mis-tool-characterization`` tries all eight (the cable's elasticity, the input cell's gain and
+# offset and a clock skew among them), and on this split climbs ``stick_slip`` (0.00484 N m) then
+# ``smooth_edge`` (slip spreading along the wrap, 0.00348 N m; :doc:`/guide/diagnosis`).
 
 if files:
     result = diagnose(

@@ -2,24 +2,33 @@
 
 A passage model predicts one side from the other through two slip edges, the forward-slip and
 the reverse-slip value of the predicted side (:mod:`friction_models.passage`). Blocks act at one
-of three stages:
+of five stages, in this order:
 
-=========  ===============================================  =======================================
-stage      hook                                              blocks
-=========  ===============================================  =======================================
-``load``   ``load(inputs, values) -> (T,)``: a torque or     ``position_torque``, ``velocity_friction``,
-           tension added on the output side [N m or N]       ``load_coulomb``
-``state``  where the predicted side sits between its edges   ``stick_slip`` (held through reversals)
-``edge``   how it moves from one edge to the other           ``smooth_edge`` (Maxwell slip)
-=========  ===============================================  =======================================
+==========  ==============================================  =======================================
+stage       hook                                            blocks
+==========  ==============================================  =======================================
+``input``   the input sensor's reading undone before the    ``input_cells``
+            law (:meth:`PassageBlock.true_input`)
+``load``    ``load(inputs, values) -> (T,)``: a torque or   ``position_torque``, ``velocity_friction``,
+            tension added on the output side [N m or N]     ``load_coulomb``
+``state``   where the predicted side sits between its       ``stick_slip`` (held through reversals,
+            edges                                           driven by the input's force),
+                                                            ``cable_elasticity`` (by its travel)
+``edge``    how it moves from one edge to the other         ``smooth_edge`` (Maxwell slip)
+``sensor``  the predicted side's reading                    ``clock_skew``
+            (:meth:`PassageBlock.sensor`)
+==========  ==============================================  =======================================
 
 Without a ``state`` block the passage has no memory: the predicted side is on the edge of the
 current slip state, the paper's Eq. (6) with ``sigma`` = +1 or -1 while the input moves and 0 in
-stick (at rest, the ratio is 1). ``stick_slip`` holds it through rests and reversals instead.
-Without an ``edge`` block the switch is sharp.
+stick (at rest, the ratio is 1). ``stick_slip`` holds it through rests and reversals instead;
+``cable_elasticity`` lets it cross the band as the input travels. A model has one state block.
+Without an ``edge`` block the switch is sharp. The ``input`` and ``sensor`` blocks are in
+:mod:`tendon_id.zoo.passage.sensor_blocks`.
 Effects keep the snake's names where the physics is the same (``stick_slip``,
-``velocity_friction``). Each block declares its parameters with bounds, the neutral value that
-switches it off, and a probe (a typical magnitude) for the diagnosis's signatures.
+``velocity_friction``, ``clock_skew``). Each block declares its parameters with bounds, the
+neutral value that switches it off (the model without the block, bit for bit), and a probe (a
+typical magnitude) for the diagnosis's signatures.
 """
 
 from __future__ import annotations
@@ -30,10 +39,12 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from friction_models.play_operator import play_output
 from tendon_id.errors import ConfigError
 from tendon_id.family.blocks import BlockRegistry, EffectBlock
 
-PASSAGE_STAGES = ("load", "state", "edge")
+#: Where a block acts, in the order of the forward computation (the module docstring's table).
+PASSAGE_STAGES = ("input", "load", "state", "edge", "sensor")
 #: The bench passage's blocks, filled as each block class is defined.
 BLOCKS = BlockRegistry("passage")
 #: Every passage block class by effect name (a passage block's name is its effect's).
@@ -46,7 +57,7 @@ class PassageBlock(EffectBlock):
 
     Class attributes besides: ``units`` (per parameter, with ``Q`` for the passage's quantity:
     N or N m). Bounds, starts and probes depend on the data's scales (``scale``: ``signal``
-    [Q], ``input`` [Q], ``travel``, ``angle`` [rad], ``speed`` [rad/s]).
+    [Q], ``input`` [Q], ``travel``, ``angle`` [rad], ``speed`` [rad/s], ``dt`` [s]).
     """
 
     registry: ClassVar[BlockRegistry] = BLOCKS
@@ -77,6 +88,18 @@ class PassageBlock(EffectBlock):
             raise ConfigError(f"the {self.effect} block needs the {need.replace('_', '-')} column in the data")
 
     def load(self, inputs, values: dict) -> NDArray:  # pragma: no cover - the load blocks override it
+        raise NotImplementedError
+
+    def true_input(self, u: NDArray, values: dict) -> NDArray:  # pragma: no cover - the input blocks override it
+        """An ``input`` block: the input side's true signal [Q] from its reading ``u`` [Q]."""
+        raise NotImplementedError
+
+    def input_reading(self, x: NDArray, values: dict) -> NDArray:  # pragma: no cover - the input blocks override it
+        """An ``input`` block: the input sensor's reading [Q] of the true signal ``x`` [Q] (the inverse direction)."""
+        raise NotImplementedError
+
+    def sensor(self, inputs, y: NDArray, values: dict, direction: str) -> NDArray:  # pragma: no cover
+        """A ``sensor`` block: the predicted side [Q] as its sensor reads it, from the model's ``y`` [Q]."""
         raise NotImplementedError
 
 
@@ -128,6 +151,86 @@ class SmoothEdge(PassageBlock):
     def initial(self, scale):
         # The loss is flat at width 0 (every element then is the same play operator): start inside.
         return self.probe(scale)
+
+
+@dataclass(frozen=True)
+class CableElasticity(PassageBlock):
+    """An elastic cable between the input and the contact: the band is crossed as the input travels.
+
+    The cable between the input (its sensor and encoder) and the capstan contact is a spring of
+    compliance ``C`` [rad/Q] (the input's travel per unit of force it puts into the cable,
+    referred to the predicted side); the contact holds the force in the cable within the
+    band. The cable's force ``e`` is then an elasto-plastic element: it follows the travel ``x``
+    at slope ``1 / C`` and is held within the band's half-width ``h`` [Q], a play operator on
+    ``x / C`` (Krasnosel'skii & Pokrovskii 1989), one Maxwell-slip element whose spring is the
+    cable (Al-Bender, Lampaert & Swevers 2005; the cable as the contact's compliance: Kaneko,
+    Paetsch & Tolle 1992, Agrawal, Peine & Yao 2010)::
+
+        z = play(x / C; h),   e = x / C - z in [-h, h],   y = c + (e / h) (f - c)
+
+    with ``f`` the edge of forward slip and ``c`` the band's centre: after a reversal the
+    predicted side crosses the band linearly in the travel, over ``2 h C`` [rad], and rests hold
+    it (the stretch keeps its force). A log starts on the edge of its first motion.
+
+    It stands alone, in the ``state`` stage: it is the passage's memory driven by the input's
+    travel, where ``stick_slip`` is driven by its force. It cannot refine ``stick_slip``: a
+    massless cable passes the measured input force to the contact whatever its stiffness, so
+    the force-driven play is unchanged by it, and the stretch shows only against the travel (the
+    backlash in displacement of Agrawal et al.'s cable-conduit model). The two agree where the
+    measured force is the contact's and the cable linear; this block wins where the travel tells
+    the contact's state better than the force does. ``C = 0``
+    is the model without it, bit for bit (its limit ``C -> 0+`` holds the edge of the last
+    motion through rests, where the base's Eq. (6) puts the ratio at 1: its fit starts at the
+    probe). Needs the input's position.
+    """
+
+    name: ClassVar[str] = "cable_elasticity"
+    effect: ClassVar[str] = "cable_elasticity"
+    stage: ClassVar[str] = "state"
+    param_names: ClassVar[tuple[str, ...]] = ("compliance",)
+    units: ClassVar[dict[str, str]] = {"compliance": "rad/Q"}
+    regressor: ClassVar[str] = "a residual after each reversal that fades over the input's travel, not its force"
+    needs: ClassVar[tuple[str, ...]] = ("position",)
+
+    def bounds(self, scale):
+        # Up to a band as large as the largest output crossed over the whole travel: beyond, no edge is reached.
+        return {"compliance": (0.0, scale["travel"] / scale["signal"])}
+
+    def probe(self, scale):
+        # Such a band crossed over 2 % of the travel (the bench's reversals cross ~90 % of theirs in ~4 %,
+        # experiments/elastic_edge.py).
+        return {"compliance": 0.02 * scale["travel"] / scale["signal"]}
+
+    def initial(self, scale):
+        # At C = 0 the reading jumps at every rest (see the docstring): start inside.
+        return self.probe(scale)
+
+
+def elastic_state(forward: NDArray, reverse: NDArray, travel: NDArray, compliance: float, reset, start) -> NDArray:
+    """The predicted side [Q] of :class:`CableElasticity`, shape (T,).
+
+    Parameters
+    ----------
+    forward, reverse : ndarray, shape (T,)
+        The predicted side on the edge of forward and of reverse slip [Q].
+    travel : ndarray, shape (T,)
+        The input's position [rad].
+    compliance : float
+        ``C`` [rad/Q], ``> 0``.
+    reset : ndarray of bool, shape (T,)
+        Trajectory starts.
+    start : ndarray, shape (T,)
+        The edge each frame's log starts on: +1 forward, -1 reverse.
+    """
+    centre = 0.5 * (forward + reverse)
+    half = 0.5 * np.abs(reverse - forward)
+    w = travel / compliance  # the force the travel puts into the cable [Q]
+    # z = w - e; a log starts with e = start * h (on its first motion's edge).
+    lo = np.where(reset, w - start * half, w - half)
+    hi = np.where(reset, w - start * half, w + half)
+    e = w - play_output(lo, hi, reset)
+    # e / h times (forward - centre), written so that a band of zero width gives the centre.
+    return centre + e * np.sign(forward - reverse)
 
 
 @dataclass(frozen=True)

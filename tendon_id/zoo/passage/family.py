@@ -4,9 +4,9 @@ See :doc:`/guide/architecture`.
 
 Its recording is :class:`~tendon_id.data.passage.PassageRecording`, its inputs
 :class:`~tendon_id.zoo.passage.inputs.PassageInputs`, its blocks those of
-:mod:`tendon_id.zoo.passage.blocks`, its model ``passage-capstan``; its fit is
-:mod:`~tendon_id.zoo.passage.fitting`, its diagnosis parts :mod:`~tendon_id.zoo.passage.diagnosis`
-and its posterior :mod:`~tendon_id.zoo.passage.likelihood`.
+:mod:`tendon_id.zoo.passage.blocks` and :mod:`~tendon_id.zoo.passage.sensor_blocks`, its model
+``passage-capstan``; its fit is :mod:`~tendon_id.zoo.passage.fitting`, its diagnosis parts
+:mod:`~tendon_id.zoo.passage.diagnosis` and its posterior :mod:`~tendon_id.zoo.passage.likelihood`.
 """
 
 from __future__ import annotations

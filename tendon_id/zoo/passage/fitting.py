@@ -65,6 +65,7 @@ def data_scales(inputs) -> dict[str, float]:
         "travel": float(np.ptp(travel)) or 1.0,
         "angle": float(np.max(np.abs(angle))) or 1.0,
         "speed": float(np.quantile(np.abs(inputs.speed()), 0.95)) or 1.0,
+        "dt": float(inputs.dt),
     }
 
 

@@ -31,7 +31,7 @@ from tendon_id.errors import ConfigError
 from tendon_id.family.registry import family_named
 from tendon_id.metrics import tendon_metrics
 from tendon_id.zoo.estimator import Estimator
-from tendon_id.zoo.passage.blocks import PASSAGE_BLOCKS, PassageBlock, make_block, scale_band
+from tendon_id.zoo.passage.blocks import PASSAGE_BLOCKS, PassageBlock, elastic_state, make_block, scale_band
 from tendon_id.zoo.passage.fitting import calibrate_passage, calibration_record
 from tendon_id.zoo.passage.inputs import PassageInputs
 
@@ -91,7 +91,8 @@ class PassageCapstan(PassageModel):
     ----------
     blocks : sequence of str
         Effect blocks (:data:`~tendon_id.zoo.passage.blocks.PASSAGE_BLOCKS`): ``stick_slip``,
-        ``smooth_edge``, ``position_torque``, ``velocity_friction``, ``load_coulomb``.
+        ``smooth_edge``, ``cable_elasticity``, ``position_torque``, ``velocity_friction``,
+        ``load_coulomb``, ``input_cells``, ``clock_skew``.
     direction : {"forward", "inverse"}
         Predict the output from the input (default; see the module docstring), or the reverse.
     warmup_s : float
@@ -133,6 +134,10 @@ class PassageCapstan(PassageModel):
         out = [make_block(b) for b in self.blocks]
         if len({b.effect for b in out}) < len(out):
             raise ConfigError(f"a block is named twice in {list(self.blocks)}", param="blocks")
+        states = [b.effect for b in out if b.stage == "state"]
+        if len(states) > 1:
+            # Two memories of one contact: the diagnosis does not try them together (they do not compose).
+            raise ConfigError(f"{' and '.join(states)} are two states of one passage: use one", param="blocks")
         return out
 
     def with_blocks(self, *blocks: str | PassageBlock) -> PassageCapstan:
@@ -152,9 +157,14 @@ class PassageCapstan(PassageModel):
 
         By default forward and reverse slip (+1, -1): the two edges of the stick/slip band. An
         array gives a slip state per frame (+1, -1 or 0, the paper's Eq. (6)). A torque pair's
-        input is read from the input sensor's zero, ``input_offset``.
+        input is read from the input sensor's zero, ``input_offset``; an ``input`` block undoes
+        the input sensor's reading first (forward) or reads the predicted input through it (inverse).
         """
         law = {k: theta[k] for k in LAW_PARAMS[inputs.quantity]}
+        cells = [(b, _values(theta, b)) for b in self.block_objects if b.stage == "input"]
+        u = inputs.input
+        for b, values in cells:
+            u = b.true_input(u, values)
         phi = law["phi"] * (inputs.wrap if inputs.wrap is not None else 1.0)
         load = theta["offset"] + sum(
             (b.load(inputs, _values(theta, b)) for b in self.block_objects if b.stage == "load"), 0.0
@@ -163,20 +173,21 @@ class PassageCapstan(PassageModel):
         for sigma in sigmas or (1.0, -1.0):
             if self.direction == "forward":
                 y = (
-                    pair_output(
-                        inputs.input - law["input_offset"], law["pretension"], phi, law["gain"], sigma, law["sharing"]
-                    )
+                    pair_output(u - law["input_offset"], law["pretension"], phi, law["gain"], sigma, law["sharing"])
                     if inputs.quantity == "torque"
-                    else tendon_output(inputs.input, phi, law["gain"], sigma)
+                    else tendon_output(u, phi, law["gain"], sigma)
                 )
                 out.append(y + load)
             else:
                 y = inputs.output - load
-                out.append(
+                x = (
                     law["input_offset"] + pair_input(y, law["pretension"], phi, law["gain"], sigma, law["sharing"])
                     if inputs.quantity == "torque"
                     else tendon_input(y, phi, law["gain"], sigma)
                 )
+                for b, values in reversed(cells):
+                    x = b.input_reading(x, values)
+                out.append(x)
         return tuple(out)
 
     def reading(self, inputs: PassageInputs, theta: dict) -> NDArray:
@@ -185,11 +196,14 @@ class PassageCapstan(PassageModel):
         Base: memoryless, on the edge of the current slip state (Eq. (6): ``sigma`` = +1 or -1
         while the input moves, 0 at rest). ``stick_slip``: held between the edges (play
         operator), from the edge of each log's first motion. ``smooth_edge``: the mean of play
-        operators of spread widths instead (generalised Maxwell slip).
+        operators of spread widths instead (generalised Maxwell slip). ``cable_elasticity``:
+        across the band as the input travels (an elasto-plastic element). A ``sensor`` block
+        reads the result last.
         """
-        if not any(b.stage == "state" for b in self.block_objects):
-            (y,) = self.edges(inputs, theta, inputs.slip_state(scale_band(inputs)))
-        else:
+        blocks = self.block_objects
+        effects = {b.effect for b in blocks}
+        compliance = theta.get("cable_elasticity:compliance", 0.0)
+        if "stick_slip" in effects:
             forward, reverse = self.edges(inputs, theta)
             # A log starts on the edge of its first motion.
             on_edge = np.where(inputs.first_motion(scale_band(inputs)) > 0, forward, reverse)
@@ -197,6 +211,15 @@ class PassageCapstan(PassageModel):
             hi = np.where(inputs.reset, on_edge, np.maximum(forward, reverse))
             width = theta.get("smooth_edge:width", 0.0)
             y = maxwell_slip_output(lo, hi, inputs.reset, width)[0] if width > 0 else play_output(lo, hi, inputs.reset)
+        elif "cable_elasticity" in effects and compliance > 0:
+            forward, reverse = self.edges(inputs, theta)
+            start = inputs.first_motion(scale_band(inputs))
+            y = elastic_state(forward, reverse, inputs.position, compliance, inputs.reset, start)
+        else:  # no memory (a cable_elasticity of compliance 0 is none)
+            (y,) = self.edges(inputs, theta, inputs.slip_state(scale_band(inputs)))
+        for b in blocks:
+            if b.stage == "sensor":
+                y = b.sensor(inputs, y, _values(theta, b), self.direction)
         return y
 
     # ---- estimator -------------------------------------------------------------------
