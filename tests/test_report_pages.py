@@ -184,3 +184,13 @@ def test_closed_loop_lead_explains_a_slow_single_loop_of_the_open_loop_best():
     assert "ns has the slowest single settling, 10.5 s on the step" in text
     # its torque error on the step (0.561) is no larger than pg's (0.581): the estimate does not explain it
     assert "no larger than pg's (0.58 N m)" in text and "most accurate open loop (22.6 N" in text
+
+
+def test_the_truth_names_its_options_and_the_inherited_start_state():
+    from tendon_id.report.truth import truth_names
+
+    meta = {"effects": ["contact", "stick_slip"], "options": ["elastic_tendon"], "session": "continuous"}
+    assert truth_names(meta) == {"contact", "stick_slip", "elastic_tendon", "start_state"}
+    assert "start_state" not in truth_names({**meta, "session": "fresh"})
+    assert "start_state" not in truth_names({"effects": ["contact"], "session": "continuous"})  # nothing stateful
+    assert truth_names(None) == set()

@@ -109,10 +109,5 @@ def lead_sentences(result: DiagnosisResult) -> list[tuple[str, str]]:
             if missing
             else "."
         )
-    if result.truth.get("session") == "continuous" and truth & {"stick_slip", "viscoelastic"}:
-        trust += (
-            " No candidate models the start state each logged trajectory inherits from unlogged motion, so part "
-            "of any gap may be that."
-        )
     out.append((trust, "plain"))
     return out

@@ -79,11 +79,15 @@ def truth_effects(meta: Mapping) -> list[str] | None:
 
 
 def truth_names(meta: Mapping | None) -> set[str]:
-    """What a diagnosis may name that the truth has: its effects and the options of them that were on
-    (``smooth_edge``, ``elastic_tendon``); empty for real data."""
+    """What a diagnosis may name that the truth has: its effects, the options of them that were on
+    (``smooth_edge``, ``elastic_tendon``), and ``start_state`` where each log inherits the state of
+    unlogged motion (a continuous session with a stateful effect); empty for real data."""
     if not meta:
         return set()
-    return set(meta.get("effects") or []) | set(meta.get("options") or [])
+    names = set(meta.get("effects") or []) | set(meta.get("options") or [])
+    if meta.get("session") == "continuous" and names & STATEFUL:
+        names.add("start_state")
+    return names
 
 
 def truth_sentence(meta: Mapping) -> str | None:
