@@ -12,7 +12,7 @@ from friction_models.capstan import capstan_exponent, capstan_ratio
 from friction_models.contact_gate import dead_zone_wrap, hard_contact_gate, smooth_contact_gate
 from friction_models.friction_drift import run_in_wear_factor
 from friction_models.guide_wear import guide_wear_factors
-from friction_models.load_cell import first_order_lowpass, gain_offset, shifted_read
+from friction_models.load_cell import first_order_inverse, first_order_lowpass, gain_offset, shifted_read
 from friction_models.maxwell_slip import maxwell_slip, maxwell_slip_output
 from friction_models.mu_laws import affine_cosine_mu, constant_mu, velocity_dependent_mu
 from friction_models.play_operator import PlayResult, play_operator, play_operator_edges, slip_state
@@ -28,6 +28,7 @@ __all__ = [
     "constant_mu",
     "dead_zone_wrap",
     "edges_with_loss",
+    "first_order_inverse",
     "first_order_lowpass",
     "gain_offset",
     "guide_wear_factors",

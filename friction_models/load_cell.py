@@ -94,7 +94,8 @@ def shifted_read(x: ArrayLike, shift: float, reset: ArrayLike | None = None) -> 
     reads later than the time stamp says, a negative one earlier.  Between two frames of a segment
     the signal is interpolated linearly (exact for a ramp; second order in the frame period for a
     smooth quasi-static signal); beyond a segment's first or last frame it is held at that frame's
-    value.  A whole-frame shift is an exact shift of the samples.
+    value.  A whole-frame shift (to within 1e-9 of a frame, as one given in seconds over the frame
+    period comes out) is an exact shift of the samples.
 
     Parameters
     ----------
@@ -112,6 +113,8 @@ def shifted_read(x: ArrayLike, shift: float, reset: ArrayLike | None = None) -> 
     shift = float(shift)
     if not np.isfinite(shift):
         raise ValueError(f"shift must be a finite number of frames, got {shift}")
+    if abs(shift - round(shift)) < 1e-9:  # a shift given in seconds over a frame period: whole frames, exactly
+        shift = float(round(shift))
     x = np.asarray(x, dtype=float)
     n = x.shape[0]
     if n == 0 or shift == 0.0:
@@ -126,3 +129,40 @@ def shifted_read(x: ArrayLike, shift: float, reset: ArrayLike | None = None) -> 
     f = (p - i0).reshape((n,) + (1,) * (x.ndim - 1))
     i1 = np.minimum(i0 + 1, hi)
     return x[i0] * (1.0 - f) + x[i1] * f
+
+
+def first_order_inverse(y: NDArray, dt: float, tau: float, reset: NDArray | None = None) -> NDArray:
+    """The input of :func:`first_order_lowpass` from its output: the lag undone, exactly.
+
+    ``x[t] = (y[t] - a y[t-1]) / (1 - a)``, ``a = exp(-dt / tau)``, and ``x = y`` at each reset,
+    where the filter starts settled on its input.  ``tau = 0`` returns ``y`` itself.
+
+    Parameters
+    ----------
+    y : ndarray, shape (T, ...)
+        Lagged signal, time on axis 0.
+    dt : float
+        Sample period [s], ``> 0``.
+    tau : float
+        Time constant [s], ``>= 0``.
+    reset : ndarray of bool, shape (T,), optional
+        True at the first frame of each segment; frame 0 always is.
+
+    Returns
+    -------
+    ndarray, shape (T, ...)
+    """
+    if tau == 0.0:
+        return y
+    if not (dt > 0 and tau > 0):
+        raise ValueError("dt and tau must be positive times in s")
+    y = np.asarray(y, dtype=float)
+    a = np.exp(-dt / tau)
+    x = y.copy()
+    x[1:] -= a * y[:-1]
+    x[1:] /= 1.0 - a
+    if reset is not None:
+        r = np.asarray(reset, dtype=bool)
+        x[r] = y[r]
+    x[:1] = y[:1]
+    return x

@@ -139,10 +139,7 @@ def sensor_signals(
 
 
 def _skewed(x: NDArray, skew_s: float, dt: float, starts: NDArray) -> NDArray:
-    """``x`` read ``skew_s`` seconds off its time stamps; a whole number of frames to rounding is read exactly."""
+    """``x`` read ``skew_s`` seconds off its time stamps (:func:`friction_models.shifted_read`)."""
     if skew_s == 0.0:
         return x
-    shift = skew_s / dt
-    if abs(shift - round(shift)) < 1e-9:
-        shift = float(round(shift))
-    return shifted_read(x, shift, starts)
+    return shifted_read(x, skew_s / dt, starts)

@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from friction_models import first_order_inverse as unlag
 from friction_models import first_order_lowpass
 from tendon_id import zoo
 from tendon_id.datasets import load_recipe
@@ -25,7 +26,6 @@ from tendon_id.zoo.blocks import (
     SensorBias,
     block_from_dict,
 )
-from tendon_id.zoo.blocks.sensors import unlag
 from tendon_id.zoo.capstan import CapstanModel
 from tendon_id.zoo.inputs import TransmissionInputs
 from tendon_id.zoo.snake.refit import refit

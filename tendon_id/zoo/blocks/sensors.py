@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from friction_models import first_order_lowpass, shifted_read
+from friction_models import first_order_inverse, first_order_lowpass, shifted_read
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.blocks.base import Block
 
-__all__ = ["ActuatorCells", "ClockSkew", "LoadCellDynamics", "unlag"]
+__all__ = ["ActuatorCells", "ClockSkew", "LoadCellDynamics"]
 
 #: Tendons whose cells :class:`ActuatorCells` calibrates, 1-based as in its parameter names.
 _TENDONS = (1, 2, 3)
@@ -131,10 +131,7 @@ class ClockSkew(Block):
         skew = float(values["skew_s"])
         if skew == 0.0:
             return tension
-        shift = skew / ctx.inputs.dt
-        if abs(shift - round(shift)) < 1e-9:  # as the simulator: a whole number of frames is an exact shift
-            shift = float(round(shift))
-        return shifted_read(tension, shift, ctx.inputs.reset)
+        return shifted_read(tension, skew / ctx.inputs.dt, ctx.inputs.reset)
 
 
 @dataclass(frozen=True)
@@ -143,9 +140,10 @@ class LoadCellDynamics(Block):
 
     Each cell reads ``y[t] = a y[t-1] + (1 - a) T[t]``, ``a = exp(-dt / tau_s)``, started settled
     (``y = T``) at each trajectory's first frame (:func:`friction_models.first_order_lowpass`).
-    The block undoes the lag on the actuator-side readings (:func:`unlag`, the filter's exact
-    inverse) and applies it to the predicted terminal reading; ``tau_s = 0`` is no lag, exactly,
-    at both.  First order only: the simulator's two-stage form (``order = 2``) is not this block's.
+    The block undoes the lag on the actuator-side readings (the filter's exact inverse,
+    :func:`friction_models.first_order_inverse`) and applies it to the predicted terminal reading;
+    ``tau_s = 0`` is no lag, exactly, at both.  First order only: the simulator's two-stage form
+    (``order = 2``) is not this block's.
 
     The inverse amplifies the readings' noise by about ``1 / (1 - exp(-dt / tau_s))`` (1.6 at the
     simulator's default, 0.1 s at 10 Hz; 3.5 at 0.3 s; 20 at 2 s), and a stick/slip model ratchets
@@ -178,7 +176,7 @@ class LoadCellDynamics(Block):
         object.__setattr__(self, "tau_s", tau)
 
     def actuator(self, tension: NDArray, ctx, values: dict) -> NDArray:
-        return unlag(tension, ctx.inputs.dt, _tau(values), ctx.inputs.reset)
+        return first_order_inverse(tension, ctx.inputs.dt, _tau(values), ctx.inputs.reset)
 
     def sensor(self, tension: NDArray, ctx, values: dict) -> NDArray:
         tau = _tau(values)
@@ -190,40 +188,3 @@ def _tau(values: dict) -> float:
     if not tau >= 0:
         raise ConfigError(f"load_cell_dynamics.tau_s must be a time >= 0 in s, got {tau}")
     return tau
-
-
-def unlag(y: NDArray, dt: float, tau: float, reset: NDArray | None = None) -> NDArray:
-    """The input of :func:`friction_models.first_order_lowpass` from its output: the lag undone.
-
-    ``x[t] = (y[t] - a y[t-1]) / (1 - a)``, ``a = exp(-dt / tau)``, and ``x = y`` at each reset,
-    where the filter starts settled on its input.  ``tau = 0`` returns ``y`` itself.
-
-    Parameters
-    ----------
-    y : ndarray, shape (T, ...)
-        Lagged signal, time on axis 0.
-    dt : float
-        Sample period [s], ``> 0``.
-    tau : float
-        Time constant [s], ``>= 0``.
-    reset : ndarray of bool, shape (T,), optional
-        True at the first frame of each segment; frame 0 always is.
-
-    Returns
-    -------
-    ndarray, shape (T, ...)
-    """
-    if tau == 0.0:
-        return y
-    if not (dt > 0 and tau > 0):
-        raise ValueError("dt and tau must be positive times in s")
-    y = np.asarray(y, dtype=float)
-    a = np.exp(-dt / tau)
-    x = y.copy()
-    x[1:] -= a * y[:-1]
-    x[1:] /= 1.0 - a
-    if reset is not None:
-        r = np.asarray(reset, dtype=bool)
-        x[r] = y[r]
-    x[:1] = y[:1]
-    return x

@@ -95,7 +95,4 @@ class ClockSkew(PassageBlock):
         skew = float(values["skew_s"])
         if skew == 0.0:
             return y
-        shift = (skew if direction == "forward" else -skew) / inputs.dt
-        if abs(shift - round(shift)) < 1e-9:  # as the snake's block: a whole number of frames is an exact shift
-            shift = float(round(shift))
-        return shifted_read(y, shift, inputs.reset)
+        return shifted_read(y, (skew if direction == "forward" else -skew) / inputs.dt, inputs.reset)
