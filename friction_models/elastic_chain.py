@@ -31,7 +31,9 @@ the strictly increasing, piecewise-linear
     h_s(y) = y + k_s sum_{r>s} (F_r(y) - c_r) / k_r - c_s,      F_r = f_r o ... o f_{s+1},
 
 (the material that segment ``s`` gives to the segments beyond it), found by Newton's method
-inside a bracket, which ends in finitely many steps on a piecewise-linear function.  The sum
+inside a bracket, which ends in finitely many steps on a piecewise-linear function: ``h_s`` is
+affine on the piece where every guide beyond keeps its state, so a step that stays in its
+piece lands on the root and ends the search without another pass.  The sum
 stops at the first guide beyond ``s`` that sticks: no material passes it, so the segments from
 there on give none in all (``sum_{q>=r} (T_q - c_q) / k_q = p_r = 0``).  Then
 ``T_1 = f_1(T_0)``, ``T_2 = f_2(T_1)`` and so on.  With ``dL = 0`` this is the play operator
@@ -117,16 +119,30 @@ def elastic_chain_frame(
         for it in range(200):
             # g = h_s(y) - c_s and its slope: y plus the material segment s gives beyond guide s,
             # times k_s; f_r of each guide beyond, composed outwards (one loop: numba compiles it).
+            # [y_lo, y_hi] is the piece of h_s around y: where every guide beyond keeps its state.
             g, dg, size, x, dx = y - c[s], 1.0, abs(y) + abs(c[s]), y, 1.0
+            y_lo, y_hi = -math.inf, math.inf
             for r in range(s + 1, n):
-                lo, hi, dlo = x * em[r] - loss[r], x * ep[r] + loss[r], em[r]
-                if lo < floor:
+                lo, hi, dlo, dhi = x * em[r] - loss[r], x * ep[r] + loss[r], dx * em[r], dx * ep[r]
+                if lo < floor:  # x and the edges are affine in y: each test bounds the piece
+                    if dlo > 0.0:
+                        y_hi = min(y_hi, y + (floor - lo) / dlo)
                     lo, dlo = floor, 0.0
+                elif dlo > 0.0:
+                    y_lo = max(y_lo, y + (floor - lo) / dlo)
                 if cp[r] <= lo:
-                    x, dx = lo, dx * dlo
+                    if dlo > 0.0:
+                        y_lo = max(y_lo, y + (cp[r] - lo) / dlo)
+                    x, dx = lo, dlo
                 elif cp[r] >= hi:
-                    x, dx = hi, dx * ep[r]
+                    if dhi > 0.0:
+                        y_hi = min(y_hi, y + (cp[r] - hi) / dhi)
+                    x, dx = hi, dhi
                 else:  # guide r sticks: no material passes it, so segments r.. give none in all
+                    if dlo > 0.0:
+                        y_hi = min(y_hi, y + (cp[r] - lo) / dlo)
+                    if dhi > 0.0:
+                        y_lo = max(y_lo, y + (cp[r] - hi) / dhi)
                     break
                 kr = k[s] / k[r]
                 g += (x - c[r]) * kr
@@ -142,6 +158,9 @@ def elastic_chain_frame(
             if abs(g) <= tol or hi_y - lo_y <= tol:
                 break
             y_new = y - g / dg  # Newton; bisection where it would leave the bracket
+            if y_lo <= y_new <= y_hi:  # h_s is affine on the piece: the step lands on its root
+                y = y_new
+                break
             y = y_new if lo_y < y_new < hi_y else 0.5 * (lo_y + hi_y)
         cp[s] = y
     x = t_in

@@ -214,6 +214,30 @@ class CapstanStructure:
         terms: ExponentTerms | None = None,
     ) -> NDArray:
         """Predicted terminal load-cell reading [N], shape (T, m) (the sensor blocks applied)."""
+        joint_side = self.terminal_tension(inputs, A, B, values, tendons, terms)
+        return self.sensor_reading(inputs, joint_side, values, tendons)
+
+    def terminal_tension(
+        self,
+        inputs: TransmissionInputs,
+        A: NDArray,
+        B: NDArray,
+        values: dict | None = None,
+        tendons: NDArray | None = None,
+        terms: ExponentTerms | None = None,
+    ) -> NDArray:
+        """Predicted joint-side tension of the last set ``T[N, N, i]`` [N], shape (T, m), before its load cell."""
         values, sets, tendons = self._chain_defaults(inputs, values, np.array([inputs.n_modules - 1]), tendons)
-        log_t = self.propagate(inputs, A, B, values, sets=sets, tendons=tendons, keep_chain=False, terms=terms)
-        return apply_sensor(self.block_objects, np.exp(log_t[:, 0]), HookContext(inputs, sets, tendons), values)
+        return np.exp(self.propagate(inputs, A, B, values, sets=sets, tendons=tendons, keep_chain=False, terms=terms)[:, 0])
+
+    def sensor_reading(
+        self, inputs: TransmissionInputs, tension: NDArray, values: dict | None = None, tendons: NDArray | None = None
+    ) -> NDArray:
+        """The terminal load cell's reading [N], shape (T, m), of the joint-side ``tension`` [N] (the sensor blocks)."""
+        values, sets, tendons = self._chain_defaults(inputs, values, np.array([inputs.n_modules - 1]), tendons)
+        return apply_sensor(self.block_objects, tension, HookContext(inputs, sets, tendons), values)
+
+    def sensor_only(self, block: str) -> bool:
+        """Whether block ``block`` acts on the terminal reading alone (not the chain): its parameters leave
+        :meth:`terminal_tension` as it is."""
+        return all(b.stage == "sensor" and not b.also for b in self.block_objects if b.name == block)

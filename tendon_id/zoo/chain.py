@@ -79,11 +79,20 @@ def exponent(mu_law: str, terms: ExponentTerms, A: NDArray, B: NDArray) -> NDArr
 
     ``A``, ``B`` have shape (G, m) for ``m`` tendons (G = 1: tied); the constant law uses ``B`` as mu.
     """
-    if mu_law == "constant":
-        return B[None, :, None, :] * terms.scaled
-    phi = A[None, :, None, :] * terms.cos_alpha  # in place from here: calibration calls this thousands of times
-    phi += B[None, :, None, :]
-    phi *= terms.scaled
+    cos, scaled = terms.cos_alpha, terms.scaled
+    m = B.shape[1]
+    phi = np.empty(np.broadcast_shapes(cos.shape[:3], scaled.shape[:3], (1, B.shape[0], 1)) + (m,))
+    # One tendon at a time, in place: calibration calls this thousands of times, and numpy's loops
+    # over the long axes are several times faster than a broadcast whose innermost axis is m.
+    for i in range(m):
+        out = phi[..., i]
+        sc = scaled[..., min(i, scaled.shape[3] - 1)]
+        if mu_law == "constant":
+            np.multiply(B[None, :, None, i], sc, out=out)
+            continue
+        np.multiply(A[None, :, None, i], cos[..., min(i, cos.shape[3] - 1)], out=out)
+        out += B[None, :, None, i]
+        out *= sc
     return phi
 
 

@@ -197,6 +197,14 @@ class Block(EffectBlock):
         """
         return None
 
+    def param_tendon(self, param: str) -> int | None:
+        """The 0-based tendon whose predictions alone parameter ``param`` moves, or None (every tendon's).
+
+        A refit's finite-difference Jacobian perturbs parameters of different tendons in one
+        evaluation (:mod:`tendon_id.zoo.snake.refit`).
+        """
+        return None
+
     def initial(self) -> dict[str, float]:
         """Starting values of the block's parameters."""
         return {p: float(getattr(self, p)) for p in self.param_names}

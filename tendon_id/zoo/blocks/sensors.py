@@ -83,6 +83,9 @@ class ActuatorCells(Block):
             if p.startswith("gain") and not getattr(self, p) > -1.0:
                 raise ConfigError(f"{self.name}.{p} must be > -1 (a cell that reads its load), got {getattr(self, p)}")
 
+    def param_tendon(self, param: str) -> int | None:
+        return int(param.rsplit("_", 1)[1]) - 1  # gain_i, offset_i: tendon i's cells only
+
     def actuator(self, tension: NDArray, ctx, values: dict) -> NDArray:
         # ctx.tendons picks each propagated tendon's cell; the set axis shares it.
         gain = np.array([values[f"gain_{i + 1}"] for i in ctx.tendons], dtype=float)
