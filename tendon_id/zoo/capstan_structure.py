@@ -228,7 +228,8 @@ class CapstanStructure:
     ) -> NDArray:
         """Predicted joint-side tension of the last set ``T[N, N, i]`` [N], shape (T, m), before its load cell."""
         values, sets, tendons = self._chain_defaults(inputs, values, np.array([inputs.n_modules - 1]), tendons)
-        return np.exp(self.propagate(inputs, A, B, values, sets=sets, tendons=tendons, keep_chain=False, terms=terms)[:, 0])
+        log_t = self.propagate(inputs, A, B, values, sets=sets, tendons=tendons, keep_chain=False, terms=terms)
+        return np.exp(log_t[:, 0])
 
     def sensor_reading(
         self, inputs: TransmissionInputs, tension: NDArray, values: dict | None = None, tendons: NDArray | None = None
