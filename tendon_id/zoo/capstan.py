@@ -33,6 +33,7 @@ from tendon_id.geometry import RobotGeometry
 from tendon_id.zoo.base import TransmissionModel
 from tendon_id.zoo.blocks import Block, ContactGate, RoutingWrap, block_from_dict, compose
 from tendon_id.zoo.capstan_structure import MU_LAWS, TYINGS, CapstanStructure
+from tendon_id.zoo.chain import actuator_tension
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 
 __all__ = [
@@ -190,14 +191,21 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``."""
         inputs = self.inputs(data)
         chain = np.exp(self.propagate(inputs, self.A_, self.B_, self.block_params_))
-        chain[:, 0] = inputs.actuator  # the actuator side exactly, not exp(log(.))
+        chain[:, 0] = self._actuator_side(inputs)  # exactly, not exp(log(.))
         return chain
 
     def predict(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         inputs = self.inputs(data)
         pred = np.exp(self.propagate(inputs, self.A_, self.B_, self.block_params_, keep_chain=False))
-        pred[:, 0] = inputs.actuator[:, 0]  # set 1 passes no guide
+        pred[:, 0] = self._actuator_side(inputs)[:, 0]  # set 1 passes no guide: exactly, not exp(log(.))
         return pred
+
+    def _actuator_side(self, inputs) -> NDArray[np.float64]:
+        # The readings, or what the actuator-side blocks (a cell's gain, its lag) make of them.
+        if not any(b.acts_at("actuator") for b in self.block_objects):
+            return inputs.actuator
+        sets, tendons = np.arange(inputs.n_modules), np.arange(3)
+        return actuator_tension(self.block_objects, inputs, self.block_params_, sets, tendons)
 
     def predict_terminal(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         return self.terminal_reading(self.inputs(data), self.A_, self.B_, self.block_params_)

@@ -111,15 +111,23 @@ def log_entering(blocks: Sequence[Block], inputs, values: dict, sets: NDArray, t
     state = repr([(b, sorted(values.get(b.name, {}).items())) for b in undo])
     last = inputs.cache.get("actuator_" + key)
     if last is None or last[0] != state:
-        ctx = HookContext(inputs, sets, tendons)
-        tension = inputs.actuator[:, sets][:, :, tendons]
-        for b in undo:
-            tension = b.actuator(tension, ctx, values.get(b.name, {}))
-        log_in = np.log(np.maximum(tension, FLOOR_N))
+        log_in = np.log(np.maximum(actuator_tension(blocks, inputs, values, sets, tendons), FLOOR_N))
         log_in.flags.writeable = False  # shared by the evaluations at these values
         last = (state, log_in)
         inputs.cache["actuator_" + key] = last  # one entry per sets and tendons: a fit does not fill memory
     return last[1]
+
+
+def actuator_tension(blocks: Sequence[Block], inputs, values: dict, sets: NDArray, tendons: NDArray) -> NDArray:
+    """The actuator-side tension [N], shape (T, S, m): the readings through the ``actuator`` blocks, if any.
+
+    The blocks undo the measurement chain in reverse physical order (:attr:`Block.measurement_order`).
+    """
+    tension = inputs.actuator[:, sets][:, :, tendons]
+    ctx = HookContext(inputs, sets, tendons)
+    for b in sorted((b for b in blocks if b.acts_at("actuator")), key=lambda b: -b.measurement_order):
+        tension = b.actuator(tension, ctx, values.get(b.name, {}))
+    return tension
 
 
 def propagate_chain(

@@ -85,6 +85,16 @@ def test_neutral_block_is_the_base_model_bit_for_bit(plain, block):
     np.testing.assert_array_equal(with_block.predict(plain), with_block.predict_chain(plain)[:, joints, joints])
 
 
+def test_the_chain_starts_from_the_corrected_actuator_side(plain):
+    values = {b.name: b.initial() for b in TRUE_BASE} | {CELLS.name: CELLS.initial()}
+    model = CapstanModel(blocks=TRUE_BASE + (CELLS,)).fitted_with(*TRUE_LAW, RECIPE.robot, 12, values)
+    gain = np.array([CELLS.gain_1, CELLS.gain_2, CELLS.gain_3])
+    offset = np.array([CELLS.offset_1, CELLS.offset_2, CELLS.offset_3])
+    corrected = (plain.actuator - offset) / (1.0 + gain)  # every set's cells, as the block reads them
+    np.testing.assert_allclose(model.predict_chain(plain)[:, 0], corrected, rtol=1e-12)
+    np.testing.assert_allclose(model.predict(plain)[:, 0], corrected[:, 0], rtol=1e-12)
+
+
 @pytest.mark.parametrize(
     ("effect", "params", "block"),
     [
