@@ -75,6 +75,7 @@ def run_case(case: Case) -> dict:
         "base": case.base,
         "label": result.verdict.label,
         "verdict": result.verdict.kind,
+        "rivals": list(result.verdict.rivals),
         "ladder": [r.effects[-1] for r in result.ladder[1:]],
         "base_rmse": result.base_rmse,
         "ladder_rmse": result.ladder[-1].heldout_rmse,
@@ -137,11 +138,13 @@ def summarise(rows: list[dict]) -> dict:
         if r["kind"] in ("single", "null", "out-of-library", "other-form"):
             truth = r["truth"][0] if r["truth"] else "none"
             confusion.setdefault(truth, Counter())[r["label"]] += 1
-    top1, detectable = {}, {}
+    top1, detectable, or_rival = {}, {}, {}
     for mag in MAGNITUDES:
         sel = [r for r in rows if r["kind"] == "single" and r["magnitude"] == mag]
         if sel:
             top1[mag] = sum(r["label"] == r["truth"][0] for r in sel) / len(sel)
+            # Named first, or reported as a rival that closes nearly as much (rows before rivals had none).
+            or_rival[mag] = sum(r["truth"][0] in [r["label"], *r.get("rivals", [])] for r in sel) / len(sel)
             seen = [r for r in sel if r.get("detectable")]
             detectable[mag] = {
                 "cases": len(seen),
@@ -163,6 +166,7 @@ def summarise(rows: list[dict]) -> dict:
         "columns": columns,
         "top1": top1,
         "top1_detectable": detectable,
+        "top1_or_rival": or_rival,
         "null_false_alarm": (sum(r["label"] != "none" for r in null) / len(null)) if null else None,
         "ool_named": (sum(r["label"] in library for r in ool) / len(ool)) if ool else None,
         # An other-form case is right when its family is named (explained or in part), never "unexplained".
@@ -216,6 +220,9 @@ def format_diagnosis(r: dict) -> str:
             extra = f"  (the true structure itself passes the tests in {d['cases']} of {d['of']} cases"
             extra += f"; top-1 on those: {d['top1']:.0%})" if d["top1"] is not None else ")"
         lines.append(f"top-1 at {mag} magnitude: {acc:.0%}{extra}")
+        rival = r.get("top1_or_rival", {}).get(mag)
+        if rival is not None and rival > acc:
+            lines.append(f"  named first or as a rival that closes nearly as much: {rival:.0%}")
 
     def pct(v):
         return "n/a" if v is None else f"{v:.0%}"

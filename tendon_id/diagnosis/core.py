@@ -32,7 +32,7 @@ from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult
 from tendon_id.diagnosis.runner import Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
 from tendon_id.diagnosis.stats import gap_closed
-from tendon_id.diagnosis.verdict import decide
+from tendon_id.diagnosis.verdict import decide, with_rivals
 from tendon_id.diagnosis.where import gap_map
 from tendon_id.errors import ConfigError
 from tendon_id.family.fit import Fit
@@ -197,6 +197,7 @@ def diagnose(
     structural = {e for e, b in all_blocks.items() if not b.param_names}
     unit = family.unit(heldout)
     verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained, structural, unit=unit)
+    verdict = with_rivals(verdict, ranked, settings)
     return DiagnosisResult.assemble(
         residual=e0,
         floor=floor_sim,

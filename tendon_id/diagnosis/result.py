@@ -103,12 +103,14 @@ class Rung:
 
 @dataclass(frozen=True)
 class Verdict:
-    """``kind`` is one of :data:`VERDICT_KINDS`; ``remaining`` the share of the gap left [-]."""
+    """``kind`` is one of :data:`VERDICT_KINDS`; ``remaining`` the share of the gap left [-]; ``rivals`` the
+    candidates that alone close nearly as much of it as the effect named first (these data hardly tell them apart)."""
 
     kind: str
     effects: list
     remaining: float
     text: str
+    rivals: list = field(default_factory=list)
 
     @property
     def label(self) -> str:
@@ -116,7 +118,13 @@ class Verdict:
         return self.effects[0] if self.kind in ("explained", "partial", "family") and self.effects else self.kind
 
     def to_dict(self) -> dict:
-        return {"kind": self.kind, "effects": list(self.effects), "remaining": self.remaining, "text": self.text}
+        return {
+            "kind": self.kind,
+            "effects": list(self.effects),
+            "remaining": self.remaining,
+            "text": self.text,
+            "rivals": list(self.rivals),
+        }
 
 
 @dataclass

@@ -46,6 +46,10 @@ class DiagnosisSettings:
         Share of the gap above the noise floor a ladder must close to call it explained [-].
     named_share : float
         Share it must close before any effect is named (below it: unexplained) [-].
+    rival_share : float
+        A candidate that alone closes at least ``named_share`` of the gap, and at most this share
+        less than the effect named first, is reported as its rival: the data hardly tell them
+        apart [-].
     ladder_width : int
         Candidates tried at each rung after the first: the best of the first ranking.
     max_rungs : int
@@ -75,6 +79,7 @@ class DiagnosisSettings:
     floor_draws: int = 20
     explained_share: float = 0.8
     named_share: float = 0.5
+    rival_share: float = 0.1
     ladder_width: int = 3
     max_rungs: int = 4
     min_rung_gain: float | None = None
@@ -91,6 +96,7 @@ class DiagnosisSettings:
             (self.min_excess >= 0 and self.min_excess_structural >= 0, "min_excess values must be >= 0"),
             (self.floor_draws >= 5, "floor_draws must be >= 5"),
             (0 < self.named_share <= self.explained_share <= 1, "need 0 < named_share <= explained_share <= 1"),
+            (0 <= self.rival_share < 1, "rival_share must lie in [0, 1)"),
             (self.ladder_width >= 1 and self.max_rungs >= 1, "ladder_width and max_rungs must be >= 1"),
             (self.min_rung_gain is None or 0 <= self.min_rung_gain < 1, "min_rung_gain must lie in [0, 1)"),
             (0 < self.confound_corr <= 1, "confound_corr must lie in (0, 1]"),

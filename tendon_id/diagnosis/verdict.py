@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from tendon_id.diagnosis.result import Verdict
@@ -164,3 +166,35 @@ def decide(
         remaining,
         f"unexplained: the best ladder ({', '.join(effects)}) closes only {closed:.0%} of the gap",
     )
+
+
+def with_rivals(verdict: Verdict, ranked: list, settings) -> Verdict:
+    """The verdict, with the candidates that alone close nearly as much of the gap as the effect it names first.
+
+    A rival is significant in the first ranking, closes at least ``named_share`` of the gap alone,
+    and at most ``rival_share`` less than the named effect does: the data hardly tell the two
+    apart (on terminal-only data a terminal cell's bias and the actuator cells' errors, say), and
+    the text says so, so that a user checks both rather than trusting the first.
+    """
+    if verdict.kind not in ("explained", "partial", "family") or not verdict.effects:
+        return verdict
+    named = verdict.effects[0]
+    top = next((c for c in ranked if c.effect == named), None)
+    if top is None:
+        return verdict
+    rivals = [
+        c
+        for c in ranked
+        if c.effect != named
+        and c.significant
+        and c.gap_closed >= settings.named_share
+        and c.gap_closed >= top.gap_closed - settings.rival_share
+    ]
+    if not rivals:
+        return verdict
+    told = ", ".join(f"{c.effect} ({min(c.gap_closed, 1.0):.0%})" for c in rivals)
+    text = (
+        f"{verdict.text}; alone, {told} closes nearly as much of the gap as {named} "
+        f"({min(top.gap_closed, 1.0):.0%}): these data hardly tell them apart"
+    )
+    return dataclasses.replace(verdict, text=text, rivals=[c.effect for c in rivals])

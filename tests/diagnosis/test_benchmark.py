@@ -68,7 +68,7 @@ def _row(kind, truth, label, ladder=(), mag="default", base=10.0, final=2.0, ora
 def test_summary_counts_by_hand():
     rows = [
         _row("single", ["viscoelastic"], "viscoelastic", oracle=2.0),  # shrinkage 8 of 8: error 0
-        _row("single", ["viscoelastic"], "sensor_bias", oracle=6.0),  # 8 against 4: error 1
+        _row("single", ["viscoelastic"], "sensor_bias", oracle=6.0) | {"rivals": ["viscoelastic"]},  # error 1
         _row("single", ["contact"], "contact", mag="half", oracle=1.0),  # 8 against 9: error 1/9
         _row("null", [], "none"),
         _row("null", [], "unexplained"),
@@ -78,6 +78,7 @@ def test_summary_counts_by_hand():
     ]
     s = summarise(rows)
     assert s["top1"] == {"half": 1.0, "default": 0.5}
+    assert s["top1_or_rival"] == {"half": 1.0, "default": 1.0}  # the truth as the named effect's rival counts
     assert s["null_false_alarm"] == 0.5
     assert s["ool_named"] == 0.5
     assert s["pair_recovered"] == 1.0

@@ -233,3 +233,23 @@ def test_noise_floor_of_a_ratio_model_is_the_propagated_noise():
     assert quantised.rmse >= 0.99 * floor.rmse and "encoder" in quantised.source
     diff = noise_floor(MeasurementNoise(), model, inputs, np.random.default_rng(1).normal(0, 1.5, (600, 3)), None)
     assert diff.rmse == pytest.approx(1.5, rel=0.1) and diff.upper == diff.rmse
+
+
+def test_a_rival_that_closes_nearly_as_much_is_reported():
+    from tendon_id.diagnosis.result import CandidateResult, Verdict
+    from tendon_id.diagnosis.verdict import with_rivals
+
+    def cand(effect, closed, significant=True):
+        return CandidateResult(effect, {}, 1.0, closed, (0.1, 0.2), significant, 0.0, {})
+
+    s = DiagnosisSettings()
+    v = Verdict("explained", ["actuator_cells"], 0.0, "explained by actuator_cells")
+    ranked = [cand("actuator_cells", 1.01), cand("sensor_bias", 0.95), cand("viscoelastic", 0.2)]
+    out = with_rivals(v, ranked, s)
+    assert out.rivals == ["sensor_bias"] and out.label == "actuator_cells"
+    assert "sensor_bias (95%)" in out.text and "hardly tell them apart" in out.text
+    # Not a rival: closing 0.11 less, or not significant, or the verdict names nothing.
+    assert with_rivals(v, [cand("actuator_cells", 1.0), cand("sensor_bias", 0.89)], s).rivals == []
+    assert with_rivals(v, [cand("actuator_cells", 1.0), cand("sensor_bias", 0.99, False)], s).rivals == []
+    none = Verdict("none", [], 0.0, "no significant gap")
+    assert with_rivals(none, ranked, s) is none
