@@ -4,11 +4,13 @@ The refit minimises the calibration's loss, ``sum (ln T_hat[N, N, i] - ln T[N, N
 the frames after the model's warm-up (:doc:`/guide/calibration`), jointly over every tendon's law and the
 free block parameters, with scipy's trust-region reflective least squares (Branch, Coleman
 & Li 1999).  It is a local refinement from the base model's fit, not a global search, and
-it is a least-squares problem whose Jacobian is block-sparse (tendon ``i``'s law moves only
-tendon ``i``'s residuals), which ``least_squares`` exploits by perturbing the three tendons'
-laws in one evaluation.  nlopt's derivative-free methods cannot use either, and take about
-ten times as many evaluations here (COBYLA: 3 704 evaluations for one viscoelastic fit on
-5 000 frames).  The law is parametrised in the free box coordinates of
+it is a least-squares problem whose Jacobian is block-sparse (tendon ``i``'s law, and its own
+block parameters such as its actuator cell's gain, move only tendon ``i``'s residuals:
+``Block.param_tendon``), which ``least_squares`` exploits by perturbing the three tendons'
+parameters in one evaluation.  A step of a parameter that acts on the terminal reading alone
+reuses the chain it steps from (``CapstanModel.sensor_only``).  nlopt's derivative-free methods
+cannot use either, and take about ten times as many evaluations here (COBYLA: 3 704
+evaluations for one viscoelastic fit on 5 000 frames).  The law is parametrised in the free box coordinates of
 :class:`~tendon_id.calibration.law_layout.LawLayout`, so every step is feasible (``B >= |A|``).
 """
 
