@@ -201,11 +201,10 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         return pred
 
     def _actuator_side(self, inputs) -> NDArray[np.float64]:
-        # The readings, or what the actuator-side blocks (a cell's gain, its lag) make of them.
-        if not any(b.acts_at("actuator") for b in self.block_objects):
-            return inputs.actuator
-        sets, tendons = np.arange(inputs.n_modules), np.arange(3)
-        return actuator_tension(self.block_objects, inputs, self.block_params_, sets, tendons)
+        # The readings, through the actuator-side blocks (a cell's gain, its lag) where the model has them.
+        return actuator_tension(
+            self.block_objects, inputs, self.block_params_, np.arange(inputs.n_modules), np.arange(3)
+        )
 
     def predict_terminal(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         return self.terminal_reading(self.inputs(data), self.A_, self.B_, self.block_params_)

@@ -113,7 +113,6 @@ def refit(
     # alone.  The Jacobian's column of such a parameter reuses the chain of the point it steps from.
     in_chain = np.r_[np.ones(3 * p, dtype=bool), [not structure.sensor_only(b) for b, _ in names]]
     chains: dict[bytes, NDArray] = {}
-    first_sse: list = []
 
     def unpack(z):
         th = np.stack([layout.from_free(z[i * p : (i + 1) * p]) for i in range(3)], axis=1)
@@ -133,10 +132,7 @@ def refit(
                 chains.pop(next(iter(chains)))
             chains[key] = structure.terminal_tension(inputs, a, b, vals, terms=terms)
         pred = structure.sensor_reading(inputs, chains[key], vals)[keep]
-        out = (np.log(np.maximum(pred, FLOOR_N)) - log_label).T.ravel()  # tendon-major rows
-        if not first_sse:
-            first_sse.append((z.copy(), float(np.sum(out**2))))
-        return out
+        return (np.log(np.maximum(pred, FLOOR_N)) - log_label).T.ravel()  # tendon-major rows
 
     n_par = 3 * p + len(names)
     sparsity = lil_matrix((3 * n_keep, n_par), dtype=int)
@@ -159,8 +155,7 @@ def refit(
         ftol=REFIT_TOL,
         xtol=REFIT_TOL,
     )
-    z0_seen, sse0 = first_sse[0]
-    sse0 = sse0 if np.array_equal(z0_seen, z0) else float(np.sum(residual(z0) ** 2))
+    sse0 = float(np.sum(residual(z0) ** 2))
     improved = sol.cost <= 0.5 * sse0
     z = sol.x if improved else z0  # never worse than the start
     a, b, vals = unpack(z)
