@@ -14,7 +14,7 @@ from friction_models.friction_drift import run_in_wear_factor
 from friction_models.guide_wear import guide_wear_factors
 from friction_models.load_cell import first_order_inverse, first_order_lowpass, gain_offset, shifted_read
 from friction_models.maxwell_slip import maxwell_slip, maxwell_slip_output
-from friction_models.mu_laws import affine_cosine_mu, constant_mu, velocity_dependent_mu
+from friction_models.mu_laws import affine_cosine_mu, constant_mu, speed_factor, velocity_dependent_mu
 from friction_models.play_operator import PlayResult, play_operator, play_operator_edges, slip_state
 from friction_models.viscoelastic import viscoelastic_lag
 
@@ -41,6 +41,7 @@ __all__ = [
     "shifted_read",
     "slip_state",
     "smooth_contact_gate",
+    "speed_factor",
     "velocity_dependent_mu",
     "viscoelastic_lag",
 ]

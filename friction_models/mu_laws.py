@@ -74,3 +74,25 @@ def velocity_dependent_mu(
     v = np.abs(np.asarray(sliding_speed, dtype=float))
     dip = stribeck_drop * (1.0 - np.exp(-((v / v_stribeck) ** 2)))
     return np.asarray(mu_static, dtype=float) * (1.0 - dip + v / v_ref)
+
+
+def speed_factor(sliding_speed: ArrayLike, slope: ArrayLike) -> NDArray[np.float64]:
+    """The factor on ``mu`` of friction that changes with sliding speed, by its slope at rest.
+
+    ``1 + s |v|`` for ``s >= 0``: viscous friction (Olsson et al., "Friction models and friction
+    compensation", Eur. J. Control 4(3), 1998, Eq. 5, written multiplicatively; ``s = 1 / v_ref``
+    of :func:`velocity_dependent_mu`).  ``exp(s |v|)`` for ``s < 0``: velocity weakening, friction
+    that falls as the tendon starts to slide (the Stribeck effect, ibid. Eq. 7), in a form that
+    stays positive at any speed.  Both have the slope ``s`` at rest, so the factor is smooth in
+    ``s`` through 0, where it is 1 (Coulomb friction).
+
+    Parameters
+    ----------
+    sliding_speed : array_like
+        Tendon sliding speed through the guide [m/s] (sign ignored).
+    slope : array_like
+        ``s`` [s/m], broadcast against the speed.
+    """
+    v = np.abs(np.asarray(sliding_speed, dtype=float))
+    s = np.asarray(slope, dtype=float)
+    return np.where(s >= 0, 1.0 + np.maximum(s, 0.0) * v, np.exp(np.minimum(s, 0.0) * v))

@@ -12,6 +12,7 @@ from friction_models import (
     guide_wear_factors,
     hard_contact_gate,
     smooth_contact_gate,
+    speed_factor,
     velocity_dependent_mu,
     viscoelastic_lag,
 )
@@ -83,6 +84,20 @@ def test_velocity_friction():
     assert np.all(velocity_dependent_mu(mu, 0.003, v_ref=1.0, stribeck_drop=0.3, v_stribeck=0.002) < mu)
     with pytest.raises(ValueError):
         velocity_dependent_mu(mu, 0.0, v_ref=0.0)
+
+
+@settings(max_examples=200, deadline=None)
+@given(v=st.floats(-0.05, 0.05), slope=st.floats(-1000.0, 2000.0))
+def test_speed_factor_is_viscous_or_weakening_by_its_slope_at_rest(v, slope):
+    f = float(speed_factor(v, slope))
+    assert f > 0.0  # friction never changes sign, however fast the tendon slides
+    if slope > 0:  # viscous: the simulator's law without its dip, v_ref = 1 / slope
+        assert f == pytest.approx(float(velocity_dependent_mu(1.0, v, v_ref=1.0 / slope)))
+    elif slope < 0:  # weakening: below 1, the more the faster
+        assert f <= 1.0 and float(speed_factor(2 * v, slope)) <= f
+    h = 1e-7  # the slope at rest is the parameter, on both branches
+    assert (float(speed_factor(h, slope)) - 1.0) / h == pytest.approx(slope, rel=1e-3, abs=1e-6)
+    assert float(speed_factor(0.0, slope)) == 1.0 and float(speed_factor(v, 0.0)) == 1.0
 
 
 def sequential_lag(x, a, kappa, reset):

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from friction_models import dead_zone_wrap, guide_wear_factors, hard_contact_gate
+from friction_models import dead_zone_wrap, guide_wear_factors, hard_contact_gate, speed_factor
 from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
 from tendon_id.sliding import sliding_speed
@@ -81,16 +81,20 @@ class ContactGate(Block):
 
 @dataclass(frozen=True)
 class VelocityFriction(Block):
-    """Viscous friction: ``mu(v) = mu (1 + viscous * v)`` with the tendon's sliding speed ``v`` [m/s].
+    """Friction that changes with the tendon's sliding speed ``v`` [m/s], by its slope at rest.
 
-    The simulator's ``velocity_friction`` (:doc:`/guide/simulator`) without its Stribeck dip:
-    ``viscous = 1 / v_ref``.  The speed is the rate at which the tendon's path beyond
-    the guide changes length (:func:`tendon_id.sliding.sliding_speed`).
+    ``mu(v) = mu (1 + viscous * v)`` for ``viscous >= 0``: the simulator's ``velocity_friction``
+    (:doc:`/guide/simulator`) without its Stribeck dip, ``viscous = 1 / v_ref``.  A negative
+    ``viscous`` is velocity weakening, ``mu exp(viscous * v)``: friction that falls once the tendon
+    slides, which the family covers in a form other than the simulator's Stribeck dip
+    (:func:`friction_models.speed_factor`).  The speed is the rate at which the tendon's path
+    beyond the guide changes length (:func:`tendon_id.sliding.sliding_speed`).
 
     Parameters
     ----------
     viscous : float
-        Relative growth of mu per unit sliding speed [s/m]; 0 is Coulomb friction.
+        Relative change of mu per unit sliding speed at rest [s/m], within ``(-1000, 2000)``; 0
+        is Coulomb friction.  -1000 s/m is a fall of 63 % by 1 mm/s.
     """
 
     name = "velocity_friction"
@@ -100,7 +104,7 @@ class VelocityFriction(Block):
     regressor = "exponent times sliding speed: residual grows with joint speed"
     viscous: float = 0.0
     param_names: tuple[str, ...] = ("viscous",)
-    bounds: dict = field(default_factory=lambda: {"viscous": (0.0, 2000.0)})
+    bounds: dict = field(default_factory=lambda: {"viscous": (-1000.0, 2000.0)})
     probe: dict = field(default_factory=lambda: {"viscous": 200.0}, compare=False, repr=False)
 
     def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
@@ -109,7 +113,7 @@ class VelocityFriction(Block):
             "sliding_speed", lambda: sliding_speed(inputs.angles, inputs.geometry, inputs.reset, inputs.dt)
         )  # (T, K, N, 3)
         v = speed[:, :, ctx.sets][..., ctx.tendons]
-        return phi * (1.0 + values["viscous"] * v)
+        return phi * speed_factor(v, values["viscous"])
 
 
 @dataclass(frozen=True)
