@@ -16,7 +16,10 @@ data, blocks, refits, strata, signatures and noise floor (:mod:`tendon_id.family
    are reported beside the ranking.
 4. **How far.** A greedy ladder adds the best candidate, then the best of the next few on
    top of it, while the improvement stays significant (:mod:`~tendon_id.diagnosis.ladder`).
-5. **Verdict** (:mod:`~tendon_id.diagnosis.verdict`).
+5. **Null gains.** Where the floor alone shows no gap, the ladder's first rung is refitted on
+   data simulated from the base's fit, and must gain more than it gains there
+   (:mod:`~tendon_id.diagnosis.calibrate`).
+6. **Verdict** (:mod:`~tendon_id.diagnosis.verdict`).
 """
 
 from __future__ import annotations
@@ -26,13 +29,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from tendon_id.diagnosis.calibrate import calibrated_margins
 from tendon_id.diagnosis.ladder import climb
 from tendon_id.diagnosis.library import candidate_names
 from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult
 from tendon_id.diagnosis.runner import Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
 from tendon_id.diagnosis.stats import gap_closed
-from tendon_id.diagnosis.verdict import decide, with_rivals
+from tendon_id.diagnosis.verdict import decide, with_rivals, within_sensors
 from tendon_id.diagnosis.where import gap_map
 from tendon_id.errors import ConfigError
 from tendon_id.family.fit import Fit
@@ -196,7 +200,21 @@ def diagnose(
     strained |= {e for e, sc in zip(run.chosen[1:], run.scores[1:]) if at_bound(all_blocks[e], sc.fits)}
     structural = {e for e, b in all_blocks.items() if not b.param_names}
     unit = family.unit(heldout)
-    verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained, structural, unit=unit)
+    margins, null, draws = None, [], None
+    if (
+        len(ladder) > 1
+        and settings.null_draws
+        and not (excess_ci[0] > 0 and not within_sensors(mse0, floor_sim, settings))
+    ):
+        # The floor alone shows no gap, so the paired test decides: calibrate it on data simulated from the base.
+        calibrated = calibrated_margins(
+            family, splits, base, base_score, run, all_blocks, settings, rng,
+            n_candidates=len(names), n_jobs=n_jobs, progress=progress,
+        )  # fmt: skip
+        if calibrated is not None:
+            margins, gain, draws = calibrated
+            null = [gain]
+    verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained, structural, unit=unit, margins=margins)
     verdict = with_rivals(verdict, ranked, settings)
     return DiagnosisResult.assemble(
         residual=e0,
@@ -216,6 +234,8 @@ def diagnose(
         seconds=time.perf_counter() - t0,
         unit=unit,
         truth=simulator_truth(train_recs[0]),
+        null_gains=null,
+        null_draws=draws,
     )
 
 

@@ -167,6 +167,11 @@ class DiagnosisResult:
     truth : dict or None
         On simulated data, what the simulator put in (``recipe``, ``effects``, ``friction_truth``,
         ``session``), so the report can set the finding beside it; None for real data.
+    null_gains : list of NullGain
+        Where the floor alone showed no gap, what the ladder's first rung gains on data
+        simulated from the base (:mod:`~tendon_id.diagnosis.calibrate`); empty elsewhere.
+    null_draws : NullDraws or None
+        Those draws, on which another structure's null gain can be measured (not saved).
     """
 
     base: str
@@ -193,6 +198,8 @@ class DiagnosisResult:
     seconds: float = 0.0
     unit: str = "N"
     truth: dict | None = None
+    null_gains: list = field(default_factory=list)
+    null_draws: object = field(default=None, repr=False)
 
     @classmethod
     def assemble(cls, *, residual, floor, library, ranked: list, rng, heldout_frames: int, **fields) -> DiagnosisResult:
@@ -256,6 +263,7 @@ class DiagnosisResult:
             "seconds": self.seconds,
             "unit": self.unit,
             "truth": self.truth,
+            "null_gains": [g.to_dict() for g in self.null_gains],
         }
 
     def top_strata(self, n: int = 5) -> list[Stratum]:
@@ -279,6 +287,12 @@ class DiagnosisResult:
                 star = "*" if c.significant else " "
                 loc = f" [{c.location}]" if c.location else ""
                 lines.append(f"  {star} {c.effect:18s}{loc} {c.heldout_rmse:8.3g} {u}  gap closed {c.gap_closed:6.1%}")
+        for g in self.null_gains:
+            lines.append(
+                f"paired margin of {' + '.join(g.effects)}: {g.margin:.1%} (its refit lowered the base's mean squared "
+                f"error by {np.expm1(np.mean(g.log_ratios)):.1%} on average over {len(g.log_ratios)} draws of data "
+                "simulated from the base)"
+            )
         for w in self.warnings:
             lines.append(f"warning: {w}")
         return "\n".join(lines)

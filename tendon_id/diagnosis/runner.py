@@ -29,9 +29,13 @@ class Score:
     residual: NDArray
 
 
-def refit_and_score(family, structure, train, test, start, max_nfev: int) -> tuple[Fit, NDArray]:
+def refit_and_score(family, structure, train, test, start, max_nfev: int, tol=None) -> tuple[Fit, NDArray]:
     """One job: refit ``structure`` on ``train`` from ``start``, and its residual on ``test``."""
-    fit = family.refit(structure, train, start, max_nfev)
+    fit = (
+        family.refit(structure, train, start, max_nfev)
+        if tol is None
+        else family.refit(structure, train, start, max_nfev, tol=tol)
+    )
     return fit, family.residual(fit.model, test)
 
 
@@ -47,9 +51,12 @@ class Scorer:
     n_jobs : int, optional
         joblib workers (1: in this process).
     progress : bool, optional
+    tol : float, optional
+        Relative tolerance of every refit (:meth:`~tendon_id.family.Family.refit`); default the family's.
     """
 
-    def __init__(self, family, splits, settings, *, n_jobs: int | None = 1, progress: bool | None = None):
+    def __init__(self, family, splits, settings, *, n_jobs: int | None = 1, progress: bool | None = None, tol=None):
+        self.tol = tol
         self.family = family
         self.splits = splits
         self.settings = settings
@@ -59,7 +66,7 @@ class Scorer:
     def score(self, structures: list, starts: list[list[tuple]], desc: str) -> list[Score]:
         """Refit each structure on each split from ``starts[structure][split]``."""
         jobs = [
-            (self.family, structure, split.train, split.test, starts[i][k], self.settings.max_nfev)
+            (self.family, structure, split.train, split.test, starts[i][k], self.settings.max_nfev, self.tol)
             for i, structure in enumerate(structures)
             for k, split in enumerate(self.splits)
         ]

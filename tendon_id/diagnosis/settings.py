@@ -31,6 +31,8 @@ class DiagnosisSettings:
         (:meth:`~tendon_id.family.Family.noise_floor`), unless a candidate lowers it
         significantly by at least this share on the same frames
         (:func:`~tendon_id.diagnosis.verdict.shows_gap`: the ladder's first rung or its end).
+        That paired margin is calibrated instead where the family simulates its sensors
+        (``null_draws``).
         A practical margin: the simulated sensors are an estimate (their clean signals are
         smoothed readings), a free parameter absorbs some of what noisy inputs cost, and a gap
         of a tenth of the floor's RMSE is not worth a new block.
@@ -42,6 +44,23 @@ class DiagnosisSettings:
         significantly).
     floor_draws : int
         Simulated measurement draws of the noise floor.
+    null_draws : int
+        Draws of data simulated from the base's fit that calibrate the paired test, where the
+        floor alone shows no gap (:mod:`~tendon_id.diagnosis.calibrate`): the ladder's first rung
+        must then gain more than its refit gains on those draws.  0 keeps the fixed margins
+        ``min_excess`` and ``min_excess_structural`` (of the first rung and the ladder's end), as
+        does a family that cannot simulate its sensors.
+    null_tol : float
+        Relative tolerance of the refits on the null draws [-], looser than a diagnosis's own
+        (1e-5): on the benchmark's null seeds 5 and 12 a bending loss's log ratios moved by 0.001
+        at most between 1e-5 and 1e-4, and the draws ran 1.6 to 1.9 times faster.
+    null_scale : float
+        Factor on the bound of a null gain's log ratio [-]: the simulated data's clean inputs
+        are a running median, smoother than the truth's, and a block that absorbs input noise
+        (a bending loss) gains less on them than on the real noise (on the benchmark's null
+        seeds 5, 12 and 19, by a factor of 1.7, 1.25 and 1.0 in mean log ratio), so the bound
+        is doubled.  On the 20 null cases, 1 gave 4 false alarms and 2 none
+        (:doc:`/guide/diagnosis`).
     explained_share : float
         Share of the gap above the noise floor a ladder must close to call it explained [-].
     named_share : float
@@ -77,6 +96,9 @@ class DiagnosisSettings:
     min_excess: float = 0.25
     min_excess_structural: float = 0.0
     floor_draws: int = 20
+    null_draws: int = 5
+    null_tol: float = 1e-4
+    null_scale: float = 2.0
     explained_share: float = 0.8
     named_share: float = 0.5
     rival_share: float = 0.1
@@ -95,6 +117,9 @@ class DiagnosisSettings:
             (self.block_s > 0, "block_s must be a positive time in s"),
             (self.min_excess >= 0 and self.min_excess_structural >= 0, "min_excess values must be >= 0"),
             (self.floor_draws >= 5, "floor_draws must be >= 5"),
+            (self.null_draws == 0 or self.null_draws >= 3, "null_draws must be 0 (fixed margins) or >= 3"),
+            (0 < self.null_tol < 0.1, "null_tol must lie in (0, 0.1)"),
+            (self.null_scale >= 1, "null_scale must be >= 1 (the simulated null gains are a lower estimate)"),
             (0 < self.named_share <= self.explained_share <= 1, "need 0 < named_share <= explained_share <= 1"),
             (0 <= self.rival_share < 1, "rival_share must lie in [0, 1)"),
             (self.ladder_width >= 1 and self.max_rungs >= 1, "ladder_width and max_rungs must be >= 1"),

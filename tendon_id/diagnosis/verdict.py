@@ -31,6 +31,14 @@ def paired_margin(settings, structural: bool) -> float:
     return settings.min_excess_structural if structural else settings.min_excess
 
 
+def fixed_margins(ladder: list, settings, structural: set | frozenset = ()) -> list[float]:
+    """The paired test's fixed margins of the ladder's first rung, and of its end where that is another model [-]."""
+    if len(ladder) < 2:
+        return []
+    first = [paired_margin(settings, ladder[1].effects[-1] in structural)]
+    return first + [settings.min_excess] if len(ladder) > 2 else first
+
+
 def shows_gap(
     mse0: float,
     floor: NoiseFloor,
@@ -63,15 +71,16 @@ def decide(
     strained: set | frozenset = (),
     structural: set | frozenset = (),
     unit: str = "N",
+    margins: list[float] | None = None,
 ) -> Verdict:
     """Read the verdict off the base's gap and the ladder.
 
     * ``none``: no gap by :func:`shows_gap`: the base's held-out mean squared error is within
       ``min_excess`` of the upper quantile of a perfect model's (what the sensors alone can
       produce) or its excess over the expected floor is not significant, and neither the
-      ladder's first rung nor its end lowers it by that margin on the same frames (every rung
-      is a significant improvement; a first rung without free parameters needs only
-      ``min_excess_structural``).
+      ladder's first rung nor its end lowers it by its margin on the same frames (every rung
+      is a significant improvement): ``margins``, else ``min_excess`` (a first rung without
+      free parameters needs only ``min_excess_structural``).
     * ``family``: the first rung's block closes at least ``named_share`` of the gap, but only with a
       parameter at the far edge of its plausible range: the effect is of that family in another
       form (a drift that settles where the block's is linear, say), named with that warning.
@@ -103,20 +112,27 @@ def decide(
         Effects whose blocks have no free parameters.
     unit : str
         Unit of the errors in the text (``N``, or ``N m`` for a torque passage).
+    margins : list of float, optional
+        The paired test's margins of the first rung, and of the ladder's end where that is another
+        model; default the settings' fixed ones (:func:`fixed_margins`).  A diagnosis calibrates
+        them on data simulated from the base where its family can
+        (:func:`~tendon_id.diagnosis.calibrate.calibrated_margins`).
     """
     # The paired models: the first rung (a structural one with its own margin) and the ladder's end.
-    paired = []
-    if len(ladder) >= 2:
-        paired.append((ladder[1].heldout_rmse ** 2, paired_margin(settings, ladder[1].effects[-1] in structural)))
-        paired.append((ladder[-1].heldout_rmse ** 2, settings.min_excess))
+    calibrated = margins is not None
+    margins = fixed_margins(ladder, settings, structural) if margins is None else margins
+    paired = [(r.heldout_rmse**2, m) for r, m in zip(ladder[1:2] + ladder[2:][-1:], margins)]
     if not shows_gap(mse0, floor, excess_ci[0] > 0, paired, settings):
+        by = f"by {paired[0][1]:.0%} or more" if paired else f"by {settings.min_excess:.0%} or more"
+        if paired and calibrated:
+            by += " (its margin from data simulated from the base)"
         return Verdict(
             "none",
             [],
             0.0,
             f"no significant gap: the base's {np.sqrt(mse0):.3g} {unit} is within what the sensors alone give "
             f"(noise floor {floor.rmse:.3g} {unit}, up to {floor.upper:.3g} {unit}), and no better model lowers its "
-            f"mean squared error on the same frames by {settings.min_excess:.0%} or more",
+            f"mean squared error on the same frames {by}",
         )
     if len(ladder) >= 2 and ladder[1].effects[-1] in strained:
         e = ladder[1].effects[-1]

@@ -119,8 +119,12 @@ class Family(abc.ABC):
         """A refit's start: the fitted model ``current``, plus the block values of ``single`` (fitted, or None)."""
 
     @abc.abstractmethod
-    def refit(self, structure, inputs, start, max_nfev: int) -> Fit:
-        """Fit ``structure`` (unfitted) on ``inputs`` from ``start``, locally; ``Fit.model`` is the fitted one."""
+    def refit(self, structure, inputs, start, max_nfev: int, tol: float | None = None) -> Fit:
+        """Fit ``structure`` (unfitted) on ``inputs`` from ``start``, locally; ``Fit.model`` is the fitted one.
+
+        ``tol`` is the relative change at which the refit may stop, where the family's optimiser
+        takes one (None: the family's own); the diagnosis's null draws ask for a looser one.
+        """
 
     @abc.abstractmethod
     def residual(self, model, inputs):
@@ -150,6 +154,14 @@ class Family(abc.ABC):
     @abc.abstractmethod
     def noise_floor(self, split, model, inputs, residual, rng, settings):
         """What a perfect model's held-out error would be (:class:`~tendon_id.diagnosis.stats.NoiseFloor`)."""
+
+    def simulate_null(self, split, model, rng, draws: int = 1):
+        """``draws`` splits of data simulated as if the fitted ``model`` were the truth, read by the split's sensors.
+
+        What calibrates the diagnosis's paired test (:mod:`~tendon_id.diagnosis.calibrate`).  Default
+        None: a family that knows nothing of its sensors keeps the settings' fixed margins.
+        """
+        return None
 
     # ---- its posterior ------------------------------------------------------------------------
     @abc.abstractmethod

@@ -6,6 +6,8 @@
   actuator tension, the session clock, and the first seconds of each log.
 * **The noise floor** is simulated from the sensors the metadata declare (load-cell noise,
   encoder quantum), else taken from the residual's first differences.
+* **The null data** that calibrate the paired test are simulated from the base's fit, read by
+  the same sensors (:func:`simulate_null`).
 * **Signatures**: each block's :meth:`~tendon_id.zoo.blocks.Block.signature`.
 """
 
@@ -27,7 +29,17 @@ from tendon_id.errors import ConfigError
 from tendon_id.sliding import backward_rate
 from tendon_id.zoo.inputs import TransmissionInputs
 
-__all__ = ["MeasurementNoise", "REVERSAL_BAND", "make_splits", "noise_floor", "signatures", "strata_masks"]
+__all__ = [
+    "MeasurementNoise",
+    "REVERSAL_BAND",
+    "clean_estimates",
+    "make_splits",
+    "noise_floor",
+    "read_sensors",
+    "signatures",
+    "simulate_null",
+    "strata_masks",
+]
 
 #: Half-width of the log-tension band a tension must cross after a reversal to leave the
 #: "near reversal" stratum [-] (5 %: a few times the stick band of one guide).
@@ -171,6 +183,53 @@ def _smooth(x: NDArray, inputs, width: int, *, median: bool = False) -> NDArray:
     return out
 
 
+def clean_estimates(sensors: MeasurementNoise, inputs):
+    """Estimates of the clean inputs behind measured ones: the actuator cells' running median over 1 s,
+    the angles' average over 3 frames where an encoder quantum is declared, within each trajectory."""
+    actuator = _smooth(inputs.actuator, inputs, max(int(round(1.0 / inputs.dt)) | 1, 3), median=True)
+    angles = _smooth(inputs.angles, inputs, 3) if sensors.encoder_step else inputs.angles
+    return dataclasses.replace(inputs, actuator=actuator, angles=angles)
+
+
+def read_sensors(sensors: MeasurementNoise, clean, rng):
+    """``clean`` inputs as the declared sensors read them: cell noise, and encoder readings at a random offset.
+
+    A quantum is a function of the true angle (:class:`~tendon_id.sim.Sensors`); the offset stands
+    for where the clean estimate sits on the true grid, which is unknown.
+    """
+    sigma, step = sensors.load_cell, sensors.encoder_step
+    actuator = np.maximum(clean.actuator + sigma * rng.standard_normal(clean.actuator.shape), 1e-3)
+    angles = clean.angles
+    if step:
+        offset = rng.uniform(0.0, step, size=angles.shape[1:])
+        angles = np.round((angles + offset) / step) * step - offset
+    return dataclasses.replace(clean, actuator=actuator, angles=angles)
+
+
+def simulate_null(sensors: MeasurementNoise | None, model, split: Split, rng, draws: int = 1) -> list[Split] | None:
+    """``draws`` splits simulated from ``model``: its clean reading of the split's clean estimates, read by the sensors.
+
+    The data a diagnosis would see if the fitted ``model`` were the truth (a parametric bootstrap,
+    Efron & Tibshirani 1993, ch. 6): the clean inputs are estimated (:func:`clean_estimates`), the
+    terminal label is ``model``'s reading of them plus the cell noise, and the inputs are read by
+    the sensors (:func:`read_sensors`); the clean part is computed once for all draws.  None
+    without a declared load-cell noise.
+    """
+    if sensors is None or sensors.load_cell is None or not sensors.load_cell > 0:
+        return None
+    law = (model.A_, model.B_, model.block_params_)
+    parts = []
+    for inputs in (split.train, split.test):
+        clean = clean_estimates(sensors, inputs)
+        parts.append((clean, model.terminal_reading(clean, *law)))
+
+    def read(clean, label):
+        label = np.maximum(label + sensors.load_cell * rng.standard_normal(label.shape), 1e-3)
+        return dataclasses.replace(read_sensors(sensors, clean, rng), terminal=label)
+
+    return [Split(*(read(*part) for part in parts), sensors) for _ in range(draws)]
+
+
 def noise_floor(
     sensors: MeasurementNoise | None, model, inputs, residual: NDArray, rng, *, draws: int = 20, level: float = 0.95
 ) -> NoiseFloor:
@@ -214,19 +273,12 @@ def noise_floor(
     sigma = sensors.load_cell if sensors is not None else None
     if sigma is None or not sigma > 0:
         return difference_floor(residual)
-    actuator = _smooth(inputs.actuator, inputs, max(int(round(1.0 / inputs.dt)) | 1, 3), median=True)
-    step = sensors.encoder_step
-    angles = _smooth(inputs.angles, inputs, 3) if step else inputs.angles
+    clean_inputs = clean_estimates(sensors, inputs)
     law = (model.A_, model.B_, model.block_params_)
-    clean = model.terminal_reading(dataclasses.replace(inputs, actuator=actuator, angles=angles), *law)
+    clean = model.terminal_reading(clean_inputs, *law)
     mse = np.empty(draws)
     for k in range(draws):
-        noisy = np.maximum(actuator + sigma * rng.standard_normal(actuator.shape), 1e-3)
-        read = angles
-        if step:
-            offset = rng.uniform(0.0, step, size=angles.shape[1:])
-            read = np.round((angles + offset) / step) * step - offset
-        shaken = model.terminal_reading(dataclasses.replace(inputs, actuator=noisy, angles=read), *law)
+        shaken = model.terminal_reading(read_sensors(sensors, clean_inputs, rng), *law)
         mse[k] = sigma**2 + np.mean((shaken - clean) ** 2)
-    source = "metadata (load-cell noise" + (", encoder quantum)" if step else ")")
+    source = "metadata (load-cell noise" + (", encoder quantum)" if sensors.encoder_step else ")")
     return NoiseFloor(float(np.sqrt(mse.mean())), float(np.sqrt(np.quantile(mse, level))), source)

@@ -62,8 +62,8 @@ class SnakeFamily(Family):
             values.update({k: v for k, v in single.block_params_.items() if k not in values})
         return current.A_, current.B_, values
 
-    def refit(self, structure, inputs, start, max_nfev):
-        return refit(structure, inputs, *start, max_nfev=max_nfev)
+    def refit(self, structure, inputs, start, max_nfev, tol=None):
+        return refit(structure, inputs, *start, max_nfev=max_nfev, tol=tol)
 
     def residual(self, model, inputs):
         """Measured minus predicted terminal reading [N], shape (T, 3), NaN in the model's warm-up."""
@@ -91,6 +91,9 @@ class SnakeFamily(Family):
         return diagnosis.noise_floor(
             split.noise, model, inputs, residual, rng, draws=settings.floor_draws, level=1 - settings.alpha
         )
+
+    def simulate_null(self, split, model, rng, draws=1):
+        return diagnosis.simulate_null(split.noise, model, split, rng, draws)
 
     # ---- posterior and reports ---------------------------------------------------------------
     def likelihood(self, model, data, **options):

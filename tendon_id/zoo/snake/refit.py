@@ -55,6 +55,7 @@ def refit(
     values: dict,
     *,
     max_nfev: int = 60,
+    tol: float | None = None,
 ) -> Fit:
     """Fit ``structure``'s law and free block parameters on ``inputs``, starting from ``(A, B, values)``.
 
@@ -71,6 +72,9 @@ def refit(
         their own (neutral) values.
     max_nfev : int
         Jacobian evaluations allowed (each costs a few model evaluations).
+    tol : float, optional
+        Relative change of the cost and the parameters at which the fit stops (``ftol``, ``xtol``);
+        default :data:`REFIT_TOL`.
 
     Returns
     -------
@@ -152,8 +156,8 @@ def refit(
         diff_step=DIFF_STEP,
         x_scale="jac",
         max_nfev=max_nfev,
-        ftol=REFIT_TOL,
-        xtol=REFIT_TOL,
+        ftol=REFIT_TOL if tol is None else tol,
+        xtol=REFIT_TOL if tol is None else tol,
     )
     sse0 = float(np.sum(residual(z0) ** 2))
     improved = sol.cost <= 0.5 * sse0
