@@ -83,7 +83,7 @@ def run_case(case: Case) -> dict:
         "noise_floor_upper": result.noise_floor_upper,
         "oracle_rmse": None,
         "detectable": None,
-        # Where the floor alone showed no gap: the paired test's calibrated margins (first rung, ladder end).
+        # Where the floor alone showed no gap: the paired test's calibrated margin of the first rung.
         "null_margins": [g.margin for g in result.null_gains],
     }
     lib = case.library
@@ -103,28 +103,28 @@ def run_case(case: Case) -> dict:
         structural = not any(b.param_names for b in truth_blocks)
 
         def null_margin():
-            if result.null_draws is not None:  # the diagnosis's own draws, when it made them
-                s = DiagnosisSettings()
-                return result.null_draws.gain(lib, structure, [fit], 1 - s.alpha, s.null_scale).margin
-            return _oracle_null_margin(family, base, structure, fit, train, test)
+            return _oracle_null_margin(result, family, base, structure, fit, train, test)
 
         row["detectable"] = _detectable(result, e0, e, test[0].sample_rate_hz, structural, null_margin)
     row["seconds"] = time.perf_counter() - t0
     return row
 
 
-def _oracle_null_margin(family, base, structure, fit, train, test) -> float | None:
-    """The paired margin the diagnosis would give the oracle structure: from its null gain, at ``1 - alpha``."""
+def _oracle_null_margin(result, family, base, structure, fit, train, test) -> float | None:
+    """The paired margin the diagnosis would give the oracle structure: from its null gain, at ``1 - alpha``.
+
+    Measured on the diagnosis's own draws where it made them, else on draws made here.
+    """
     from tendon_id.diagnosis import DiagnosisSettings
-    from tendon_id.diagnosis.calibrate import null_gains
+    from tendon_id.diagnosis.calibrate import NullDraws
 
     s = DiagnosisSettings()
-    splits, _ = family.splits(family.recordings(train, "train"), family.recordings(test, "test"), s.folds, base)
-    base_fit = family.refit(base, splits[0].train, family.start(base), s.max_nfev)
-    gains = null_gains(
-        family, splits, base, [base_fit], [((), structure, [fit], 1 - s.alpha)], s, np.random.default_rng(s.seed)
-    )
-    return None if gains is None else gains[0].margin
+    draws = result.null_draws
+    if draws is None:
+        splits, _ = family.splits(family.recordings(train, "train"), family.recordings(test, "test"), s.folds, base)
+        base_fit = family.refit(base, splits[0].train, family.start(base), s.max_nfev)
+        draws = NullDraws.simulate(family, splits, base, [base_fit], s, np.random.default_rng(s.seed))
+    return None if draws is None else draws.gain((), structure, [fit], 1 - s.alpha).margin
 
 
 def _detectable(result, e_base, e_oracle, rate_hz: float, structural: bool, null_margin=None) -> bool:

@@ -30,7 +30,7 @@ from scipy import stats
 
 from tendon_id.diagnosis.runner import Scorer
 
-__all__ = ["NullDraws", "NullGain", "calibrated_margins", "null_gains", "prediction_bound"]
+__all__ = ["NullDraws", "NullGain", "calibrated_margins", "prediction_bound"]
 
 
 @dataclass(frozen=True)
@@ -94,8 +94,9 @@ class NullDraws:
         The refitted base's held-out mean squared error on each draw [unit^2].
     """
 
-    def __init__(self, family, simulated: list, n_splits: int, draws: int, scorer: Scorer):
+    def __init__(self, family, simulated: list, n_splits: int, draws: int, scorer: Scorer, scale: float):
         self.family, self.simulated, self.n_splits, self.draws, self.scorer = family, simulated, n_splits, draws, scorer
+        self.scale = scale
         # Each draw's held-out frames: the simulated test sets of its splits, concatenated in order.
         self.edges = np.cumsum([0] + [s.test.n_frames for s in simulated])
         self.mse_base = np.empty(0)
@@ -112,7 +113,7 @@ class NullDraws:
             return None
         simulated = [per_split[k][d] for d in range(draws) for k in range(len(splits))]
         scorer = Scorer(family, simulated, settings, n_jobs=n_jobs, progress=progress, tol=settings.null_tol)
-        out = cls(family, simulated, len(splits), draws, scorer)
+        out = cls(family, simulated, len(splits), draws, scorer, settings.null_scale)
         out.mse_base = out.draw_mse(out.refit(base, base_fits, "null draws: base"))
         return out
 
@@ -127,48 +128,13 @@ class NullDraws:
             [np.nanmean(residual[self.edges[d * n] : self.edges[(d + 1) * n]] ** 2) for d in range(self.draws)]
         )
 
-    def gain(self, effects: tuple, structure, fits: list, level: float, scale: float) -> NullGain:
+    def gain(self, effects: tuple, structure, fits: list, level: float) -> NullGain:
         """The null gain of ``structure`` (adding ``effects``), refitted from ``fits``, bounded at ``level``."""
         ratios = np.log(
             self.mse_base / self.draw_mse(self.refit(structure, fits, "null draws: " + " + ".join(effects)))
         )
-        return NullGain(tuple(effects), tuple(float(r) for r in ratios), level, prediction_bound(ratios, level), scale)
-
-
-def null_gains(
-    family,
-    splits: list,
-    base,
-    base_fits: list,
-    structures: list[tuple[tuple, object, list, float]],
-    settings,
-    rng: np.random.Generator,
-    *,
-    n_jobs: int | None = 1,
-    progress: bool | None = None,
-) -> list[NullGain] | None:
-    """The null gain of each structure (None where the family cannot simulate its sensors).
-
-    Parameters
-    ----------
-    family : Family
-    splits : list of Split
-        The diagnosis's splits (their sensors and the frames the draws are simulated on).
-    base : Estimator
-        The base's structure.
-    base_fits : list of Fit
-        Its fit on each split: each draw's truth, and where its refit starts.
-    structures : list of (effects, structure, fits, level)
-        Each structure to calibrate: the effects it adds to the base, the structure, its fits on
-        the splits (where its refits start) and the one-sided level of its bound.
-    settings : DiagnosisSettings
-        ``null_draws`` draws, each refit with ``max_nfev``.
-    rng : numpy.random.Generator
-    """
-    draws = NullDraws.simulate(family, splits, base, base_fits, settings, rng, n_jobs=n_jobs, progress=progress)
-    if draws is None:
-        return None
-    return [draws.gain(e, s, fits, level, settings.null_scale) for e, s, fits, level in structures]
+        bound = prediction_bound(ratios, level)
+        return NullGain(tuple(effects), tuple(float(r) for r in ratios), level, bound, self.scale)
 
 
 def calibrated_margins(
@@ -184,8 +150,8 @@ def calibrated_margins(
     n_candidates: int,
     n_jobs: int | None = 1,
     progress: bool | None = None,
-) -> tuple[list[float], NullGain, NullDraws] | None:
-    """The paired test's margin of the ladder's first rung, from its null gain (None: no draws).
+) -> tuple[NullGain, NullDraws] | None:
+    """The null gain of the ladder's first rung, whose margin the paired test takes (None: no draws).
 
     Calibrated, the paired test reads the first rung alone.  The first rung is the best of
     ``n_candidates``, so its bound's level carries the ranking's Bonferroni factor.  The ladder's
@@ -195,8 +161,6 @@ def calibrated_margins(
 
     Returns
     -------
-    margins : list of float
-        ``[NullGain.margin]`` of the first rung.
     gain : NullGain
     draws : NullDraws
         The draws, on which another structure's null gain can be measured.
@@ -206,5 +170,4 @@ def calibrated_margins(
         return None
     first = run.chosen[0]
     level = 1.0 - settings.alpha / max(n_candidates, 1)
-    gain = draws.gain((first,), base.with_blocks(blocks[first]), run.scores[0].fits, level, settings.null_scale)
-    return [gain.margin], gain, draws
+    return draws.gain((first,), base.with_blocks(blocks[first]), run.scores[0].fits, level), draws

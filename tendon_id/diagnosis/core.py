@@ -212,8 +212,8 @@ def diagnose(
             n_candidates=len(names), n_jobs=n_jobs, progress=progress,
         )  # fmt: skip
         if calibrated is not None:
-            margins, gain, draws = calibrated
-            null = [gain]
+            gain, draws = calibrated
+            margins, null = [gain.margin], [gain]
     verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained, structural, unit=unit, margins=margins)
     verdict = with_rivals(verdict, ranked, settings)
     return DiagnosisResult.assemble(

@@ -76,9 +76,9 @@ def test_the_first_rungs_margin_comes_from_its_null_gain(monkeypatch, end, first
     seen = []
 
     class FakeDraws:
-        def gain(self, effects, structure, fits, level, scale):
+        def gain(self, effects, structure, fits, level):
             seen.append((effects, level))
-            return cal.NullGain(effects, (0.0, 0.1, 0.2), level, first_bound, scale)
+            return cal.NullGain(effects, (0.0, 0.1, 0.2), level, first_bound, DiagnosisSettings().null_scale)
 
     fake = FakeDraws()
     monkeypatch.setattr(cal.NullDraws, "simulate", classmethod(lambda cls, *a, **k: fake))
@@ -86,11 +86,10 @@ def test_the_first_rungs_margin_comes_from_its_null_gain(monkeypatch, end, first
     base = SimpleNamespace(with_blocks=lambda *b: "structure")
     s = DiagnosisSettings()
     fits = SimpleNamespace(fits=[None])
-    margins, gain, draws = cal.calibrated_margins(
-        None, [None], base, fits, run, {"a": 1, "b": 2}, s, None, n_candidates=13
-    )
+    gain, draws = cal.calibrated_margins(None, [None], base, fits, run, {"a": 1, "b": 2}, s, None, n_candidates=13)
+    margins = [gain.margin]
     assert seen == [(("a",), pytest.approx(1 - s.alpha / 13))]  # the first rung alone, the best of 13
-    assert margins == [gain.margin] and gain.margin == pytest.approx(np.expm1(s.null_scale * first_bound))
+    assert gain.margin == pytest.approx(np.expm1(s.null_scale * first_bound))
     assert draws is fake  # kept, to measure another structure on the same draws
     # Calibrated, only the first rung is paired: a ladder end that gains more does not show a gap.
     floor = NoiseFloor(2.0, 2.0, "by hand")
@@ -118,7 +117,7 @@ def test_null_draws_share_the_base_and_measure_a_real_gain():
     fit = family.refit(base, splits[0].train, family.start(base), s.max_nfev)
     draws = cal.NullDraws.simulate(family, splits, base, [fit], s, np.random.default_rng(0))
     assert len(draws.simulated) == 3 and draws.mse_base.shape == (3,) and np.all(draws.mse_base > 0)
-    same = draws.gain(("base",), base, [fit], 0.95, 2.0)  # the base against itself: no gain on any draw
+    same = draws.gain(("base",), base, [fit], 0.95)  # the base against itself: no gain on any draw
     assert np.allclose(same.log_ratios, 0.0) and same.margin == pytest.approx(0.0, abs=1e-9)
     again = cal.NullDraws.simulate(family, splits, base, [fit], s, np.random.default_rng(0))
     assert np.array_equal(again.mse_base, draws.mse_base)  # the same seed gives the same draws
