@@ -14,7 +14,8 @@ data, blocks, refits, strata, signatures and noise floor (:mod:`tendon_id.family
    number of candidates.  The training BIC, the confounding of its parameters with the
    law, and the sparse vote on the signature library (:mod:`~tendon_id.diagnosis.library`)
    are reported beside the ranking.
-4. **How far.** A greedy ladder adds the best candidate, then the best of the next few on
+4. **How far.** A greedy ladder adds the best candidate (the simplest of it and its rivals,
+   :func:`~tendon_id.diagnosis.verdict.parsimonious_lead`), then the best of the next few on
    top of it, while the improvement stays significant (:mod:`~tendon_id.diagnosis.ladder`).
 5. **Null gains.** Where the floor alone shows no gap, the ladder's first rung is refitted on
    data simulated from the base's fit, and must gain more than it gains there
@@ -36,7 +37,7 @@ from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult
 from tendon_id.diagnosis.runner import Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
 from tendon_id.diagnosis.stats import gap_closed
-from tendon_id.diagnosis.verdict import decide, with_rivals, within_sensors
+from tendon_id.diagnosis.verdict import decide, parsimonious_lead, with_rivals, within_sensors
 from tendon_id.diagnosis.where import gap_map
 from tendon_id.errors import ConfigError
 from tendon_id.family.fit import Fit
@@ -179,7 +180,7 @@ def diagnose(
         return [n for n in out if composes(base, [all_blocks[e] for e in chosen] + [all_blocks[n]])]
 
     run = climb(
-        ranked,
+        parsimonious_lead(ranked, settings),
         {e: (st, sc) for e, st, sc in zip(blocks, structures, scores)},
         base_score,
         scorer=scorer,
@@ -214,7 +215,17 @@ def diagnose(
         if calibrated is not None:
             gain, draws = calibrated
             margins, null = [gain.margin], [gain]
-    verdict = decide(mse0, floor_sim, excess_ci, ladder, settings, strained, structural, unit=unit, margins=margins)
+    end_floor = None
+    if len(ladder) > 1 and not within_sensors(ladder[-1].heldout_rmse ** 2, floor_sim, settings):
+        # The end model's own floor: one that undoes a lag on its inputs amplifies their noise.  Its own
+        # generator, so that asking leaves every other draw of the diagnosis as it was.
+        end_rng = np.random.default_rng([settings.seed, 1])
+        end_model = run.score.fits[0].model
+        end_floor = family.noise_floor(splits[0], end_model, heldout, run.score.residual, end_rng, settings)
+    verdict = decide(
+        mse0, floor_sim, excess_ci, ladder, settings, strained, structural,
+        unit=unit, margins=margins, end_floor=end_floor,
+    )  # fmt: skip
     verdict = with_rivals(verdict, ranked, settings)
     return DiagnosisResult.assemble(
         residual=e0,

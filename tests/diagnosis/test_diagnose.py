@@ -253,3 +253,51 @@ def test_a_rival_that_closes_nearly_as_much_is_reported():
     assert with_rivals(v, [cand("actuator_cells", 1.0), cand("sensor_bias", 0.99, False)], s).rivals == []
     none = Verdict("none", [], 0.0, "no significant gap")
     assert with_rivals(none, ranked, s) is none
+
+
+def test_the_simplest_of_near_equal_candidates_leads_the_ladder():
+    from tendon_id.diagnosis.result import CandidateResult, Verdict
+    from tendon_id.diagnosis.verdict import parsimonious_lead, with_rivals
+
+    def cand(effect, closed, n_params, significant=True):
+        params = {f"p{k}": 0.0 for k in range(n_params)}
+        return CandidateResult(effect, {}, 2.0 - closed, closed, (0.1, 0.2), significant, 0.0, params)
+
+    s = DiagnosisSettings()
+    cells, bias, visco = cand("actuator_cells", 1.03, 6), cand("sensor_bias", 0.97, 3), cand("viscoelastic", 0.2, 2)
+    lead = parsimonious_lead([cells, bias, visco], s)
+    assert [c.effect for c in lead] == ["sensor_bias", "actuator_cells", "viscoelastic"]
+    out = with_rivals(Verdict("explained", ["sensor_bias"], 0.0, "explained by sensor_bias"), lead, s)
+    assert out.rivals == ["actuator_cells"]
+    assert "or more" in out.text and "fewest free parameters (3)" in out.text
+    # The best stays first: a simpler candidate 0.11 behind is no rival, nor is an insignificant one,
+    # and among rivals with as many parameters the better leads.
+    far = cand("sensor_bias", 0.92, 3)
+    assert parsimonious_lead([cells, far], s)[0] is cells
+    assert parsimonious_lead([cells, cand("sensor_bias", 1.0, 3, False)], s)[0] is cells
+    assert parsimonious_lead([cells, cand("clock_skew", 1.0, 6)], s)[0] is cells
+    assert parsimonious_lead([cand("x", 0.9, 1, False), bias], s)[0].effect == "x"  # nothing significant leads
+
+
+def test_what_the_ladder_leaves_may_be_within_its_own_models_floor():
+    from tendon_id.diagnosis.result import Rung
+    from tendon_id.diagnosis.stats import NoiseFloor
+    from tendon_id.diagnosis.verdict import decide
+
+    s = DiagnosisSettings()
+    floor = NoiseFloor(rmse=1.4, upper=1.45, source="by hand")
+    base, lag = Rung(["base"], 2.1, 0.0), Rung(["base", "load_cell_dynamics"], 1.83, 0.43)
+    mse0 = 2.1**2
+    assert decide(mse0, floor, (1.0, 3.0), [base, lag], s).kind == "unexplained"  # closes 43 % of the base's gap
+    # The lag undone amplifies the cells' noise: at the truth the model errs by 2.1 N, and 1.83 N is within it.
+    amplified = NoiseFloor(rmse=2.07, upper=2.13, source="by hand")
+    v = decide(mse0, floor, (1.0, 3.0), [base, lag], s, end_floor=amplified)
+    assert (v.kind, v.effects) == ("explained", ["load_cell_dynamics"])
+    assert "to the ladder's model (its noise floor 2.07 N" in v.text
+    # A floor no higher than the base's changes nothing, nor does one the ladder's end is beyond.
+    assert decide(mse0, floor, (1.0, 3.0), [base, lag], s, end_floor=NoiseFloor(1.3, 1.4, "by hand")).kind == (
+        "unexplained"
+    )
+    assert decide(mse0, floor, (1.0, 3.0), [base, lag], s, end_floor=NoiseFloor(1.5, 1.6, "by hand")).kind == (
+        "unexplained"
+    )  # 1.83**2 > 1.25 * 1.6**2

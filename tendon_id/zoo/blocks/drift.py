@@ -11,8 +11,12 @@ from friction_models import run_in_wear_factor
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.blocks.base import Block
 
-#: Bounds of the fitted parameters: the run-in's fall of friction [-] and the wear rate [1/m].
-DRIFT_BOUNDS = {"run_in_drop": (0.0, 0.9), "wear_rate_per_m": (0.0, 2.0)}
+#: Bounds of the fitted parameters: the run-in's fall of friction [-], the wear rate [1/m] and the
+#: run-in distance [m] (a centimetre of sliding to five metres).
+DRIFT_BOUNDS = {"run_in_drop": (0.0, 0.9), "wear_rate_per_m": (0.0, 2.0), "run_in_length_m": (0.01, 5.0)}
+#: Run-in distance of the short-run-in signature column [m]: a run-in done within a tenth of a
+#: paper-sized session's sliding (:meth:`FrictionDrift.probes`).
+SHORT_RUN_IN_M = 0.05
 
 
 @dataclass(frozen=True)
@@ -43,8 +47,11 @@ class FrictionDrift(Block):
         Rise of the multiplier per metre slid, ``c`` [1/m], fitted within ``(0, 2)``; 0 (default)
         is no wear.
     run_in_length_m : float
-        Run-in distance ``L`` [m], ``> 0`` (a setting, not fitted): ``1 - exp(-1)`` of the fall
-        is done after ``L``.  Default 0.5 m, the simulator's.
+        Run-in distance ``L`` [m]: ``1 - exp(-1)`` of the fall is done after ``L``; fitted within
+        ``(0.01, 5)`` m, from 0.5 m (default, the simulator's).  How far a pair of surfaces
+        slides before it runs in depends on the materials, the load and the finish (Blau 2005),
+        so no one value fits every robot; it is free, and where the data slide far less than
+        ``L`` the run-in is nearly linear in the distance and ``d / L`` is what they tell.
     prior_sliding_m : float
         Distance slid through every guide before the data's first frame, ``s0`` [m], ``>= 0`` (a
         setting, not fitted).  A user rarely knows it: the default, 0, takes new guides and
@@ -63,11 +70,13 @@ class FrictionDrift(Block):
     wear_rate_per_m: float = 0.0
     run_in_length_m: float = 0.5
     prior_sliding_m: float = 0.0
-    param_names: tuple[str, ...] = ("run_in_drop", "wear_rate_per_m")
+    param_names: tuple[str, ...] = ("run_in_drop", "wear_rate_per_m", "run_in_length_m")
     bounds: dict = field(default_factory=lambda: dict(DRIFT_BOUNDS))
-    # The simulator's defaults: a typical magnitude of each.
+    # The simulator's defaults: a typical magnitude of each; the run-in distance's is a short run-in.
     probe: dict = field(
-        default_factory=lambda: {"run_in_drop": 0.2, "wear_rate_per_m": 0.05}, compare=False, repr=False
+        default_factory=lambda: {"run_in_drop": 0.2, "wear_rate_per_m": 0.05, "run_in_length_m": SHORT_RUN_IN_M},
+        compare=False,
+        repr=False,
     )
 
     def __post_init__(self) -> None:
@@ -75,28 +84,39 @@ class FrictionDrift(Block):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
                 raise ConfigError(f"friction_drift.{name} must be a number, got {value!r}")
-        for name, unit in (("run_in_drop", ""), ("wear_rate_per_m", " per m")):
+        for name, unit in (("run_in_drop", ""), ("wear_rate_per_m", " per m"), ("run_in_length_m", " m")):
             lo, hi = DRIFT_BOUNDS[name]
             if not lo <= getattr(self, name) <= hi:
                 raise ConfigError(f"friction_drift.{name} must lie in [{lo}, {hi}]{unit}, got {getattr(self, name)!r}")
-        if not 0 < self.run_in_length_m < np.inf:
-            raise ConfigError(
-                f"friction_drift.run_in_length_m must be a positive distance in m, got {self.run_in_length_m!r}"
-            )
         if not 0 <= self.prior_sliding_m < np.inf:
             raise ConfigError(
                 f"friction_drift.prior_sliding_m must be a distance >= 0 in m, got {self.prior_sliding_m!r}"
             )
 
     def settings(self) -> dict:
-        return {"run_in_length_m": float(self.run_in_length_m), "prior_sliding_m": float(self.prior_sliding_m)}
+        return {"prior_sliding_m": float(self.prior_sliding_m)}
+
+    def probes(self) -> list[tuple[str, dict[str, float]]]:
+        """Signature columns: a run-in over ``L``, a run-in over :data:`SHORT_RUN_IN_M`, and wear.
+
+        The run-in distance alone, with no fall, changes nothing; its column is the fall over a
+        short distance instead, the shape the data show when the run-in is done early in them.
+        """
+        base = self.initial()
+        drop, wear = float(self.probe["run_in_drop"]), float(self.probe["wear_rate_per_m"])
+        return [
+            (f"{self.effect}:run_in_drop", {**base, "run_in_drop": drop}),
+            (f"{self.effect}:run_in_length_m", {**base, "run_in_drop": drop, "run_in_length_m": SHORT_RUN_IN_M}),
+            (f"{self.effect}:wear_rate_per_m", {**base, "wear_rate_per_m": wear}),
+        ]
 
     def factor(self, slid: NDArray, values: dict) -> NDArray[np.float64]:
         """The friction multiplier ``w`` [-] of guides that have slid ``slid`` [m] since the data's first frame."""
         # An optimiser's rounding just past a bound is the bound: run_in_wear_factor refuses d < 0 or c < 0.
         d = min(max(float(values["run_in_drop"]), 0.0), DRIFT_BOUNDS["run_in_drop"][1])
         c = max(float(values["wear_rate_per_m"]), 0.0)
-        return run_in_wear_factor(slid + float(self.prior_sliding_m), d, float(self.run_in_length_m), c)
+        length = max(float(values.get("run_in_length_m", self.run_in_length_m)), DRIFT_BOUNDS["run_in_length_m"][0])
+        return run_in_wear_factor(slid + float(self.prior_sliding_m), d, length, c)
 
     def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
         if values["run_in_drop"] == 0 and values["wear_rate_per_m"] == 0:

@@ -137,37 +137,54 @@ class ClockSkew(Block):
         return shifted_read(tension, skew / ctx.inputs.dt, ctx.inputs.reset)
 
 
+#: Forms of :class:`LoadCellDynamics`.
+LAG_FORMS = ("commuted", "exact")
+
+
 @dataclass(frozen=True)
 class LoadCellDynamics(Block):
     """First-order lag of every load cell (:doc:`/guide/simulator` ``load_cell_dynamics``).
 
     Each cell reads ``y[t] = a y[t-1] + (1 - a) T[t]``, ``a = exp(-dt / tau_s)``, started settled
-    (``y = T``) at each trajectory's first frame (:func:`friction_models.first_order_lowpass`).
-    The block undoes the lag on the actuator-side readings (the filter's exact inverse,
-    :func:`friction_models.first_order_inverse`) and applies it to the predicted terminal reading;
-    ``tau_s = 0`` is no lag, exactly, at both.  First order only: the simulator's two-stage form
-    (``order = 2``) is not this block's.
+    (``y = T``) at each trajectory's first frame (:func:`friction_models.first_order_lowpass`),
+    the actuator-side cells and the terminal ones alike.  The block has two forms:
 
-    The inverse amplifies the readings' noise by about ``1 / (1 - exp(-dt / tau_s))`` (1.6 at the
-    simulator's default, 0.1 s at 10 Hz; 3.5 at 0.3 s; 20 at 2 s), and a stick/slip model ratchets
-    on it: with the simulator's 1 N noise, the block at the true lag and law predicted the
-    held-out terminal reading worse than no block at all (0.1 s: 2.0 against 1.6 N RMSE), and a fit
-    settles below the true lag.  With less noise it pays: at 0.2 N and a 0.3 s lag, a fit with it
-    predicted to 0.6 N RMSE, capstan-nonsmooth without it to 2.6-3.1 N.
+    * ``"exact"`` undoes the lag on the actuator-side readings (the filter's exact inverse,
+      :func:`friction_models.first_order_inverse`) and applies it to the predicted terminal
+      reading: at the true settings it is the simulator.  The inverse amplifies the readings'
+      noise by about ``(1 + a) / (1 - a)`` at the highest frequency (2.2 at the simulator's
+      default, 0.1 s at 10 Hz; 4.1 at 0.2 s), and a stick/slip model ratchets on it: with the
+      simulator's 1 N noise, the block at the true lag and law predicted the held-out
+      terminal reading worse than no block at all (0.1 s: 2.0 against 1.6 N RMSE).
+    * ``"commuted"`` (default) feeds the lagged readings as they are and lags the wrap the
+      capstan exponent scales instead (an ``exponent``-stage filter, :attr:`stage`).  A lag
+      commutes with a ratio to first order: with ``H = 1 - tau d/dt + O(tau^2)``,
+      ``H[r(alpha) T] = r(H alpha) H[T] + O(tau^2)``, so a terminal tension that the cells
+      see through the same lag is the chain's output at a lagged wrap, fed the lagged input.
+      Nothing is inverted, so nothing amplifies the noise; the wrap's cosine in the affine law
+      is not lagged, which leaves out a fraction ``A alpha sin(alpha) / mu`` of the first-order
+      term (a few percent at the snake's wraps).  On the withheld-effect benchmark's lags (5
+      seeds; :doc:`/guide/benchmarks`) it ranked first in 5 of 5 at 0.1 s and 0.2 s, where the
+      exact form did in 1 and 2.
+
+    ``tau_s = 0`` is no lag, exactly, in either form.
 
     Parameters
     ----------
     tau_s : float
         Time constant [s], ``>= 0``.  Default 0.
+    form : {"commuted", "exact"}
+        As above (a setting, not fitted).
     """
 
     name = "load_cell_dynamics"
     effect = "load_cell_dynamics"
-    stage = "actuator"
-    also = ("sensor",)
+    stage = "exponent"
+    also = ("actuator", "sensor")
     measurement_order = 0  # the cell and its amplifier filter the force before anything else
     regressor = "the rate of tension change, at the cell's time scale: residual lags the terminal tension"
     tau_s: float = 0.0
+    form: str = "commuted"
     param_names: tuple[str, ...] = ("tau_s",)
     bounds: dict = field(default_factory=lambda: {"tau_s": (0.0, 2.0)})
     probe: dict = field(default_factory=lambda: {"tau_s": 0.1}, compare=False, repr=False)
@@ -177,13 +194,34 @@ class LoadCellDynamics(Block):
         if tau < 0:
             raise ConfigError(f"{self.name}.tau_s must be a time >= 0 in s, got {tau}")
         object.__setattr__(self, "tau_s", tau)
+        if self.form not in LAG_FORMS:
+            raise ConfigError(f"{self.name}.form must be one of {', '.join(LAG_FORMS)}, got {self.form!r}")
+
+    def settings(self) -> dict:
+        return {"form": self.form}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> LoadCellDynamics:
+        """The block of :meth:`to_dict`; one saved before it had forms was fitted in the exact form, and keeps it."""
+        return cls(**{"form": "exact", **d})
+
+    def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
+        tau = _tau(values)
+        if self.form != "commuted" or tau == 0.0:
+            return phi
+        return first_order_lowpass(phi, ctx.inputs.dt, tau, ctx.inputs.reset)
 
     def actuator(self, tension: NDArray, ctx, values: dict) -> NDArray:
-        return first_order_inverse(tension, ctx.inputs.dt, _tau(values), ctx.inputs.reset)
+        tau = _tau(values)
+        if self.form != "exact" or tau == 0.0:
+            return tension
+        return first_order_inverse(tension, ctx.inputs.dt, tau, ctx.inputs.reset)
 
     def sensor(self, tension: NDArray, ctx, values: dict) -> NDArray:
         tau = _tau(values)
-        return tension if tau == 0.0 else first_order_lowpass(tension, ctx.inputs.dt, tau, ctx.inputs.reset)
+        if self.form != "exact" or tau == 0.0:
+            return tension
+        return first_order_lowpass(tension, ctx.inputs.dt, tau, ctx.inputs.reset)
 
 
 def _tau(values: dict) -> float:
