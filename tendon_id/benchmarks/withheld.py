@@ -29,7 +29,7 @@ from tendon_id.sim import EFFECT_NAMES, EFFECT_OPTIONS, EFFECT_TYPES, Effects, s
 from tendon_id.sim.protocols import PAPER_FRAMES
 from tendon_id.sim.sensor_chain import cell_errors
 
-__all__ = ["LIBRARY", "OTHER_FORMS", "OUT_OF_LIBRARY", "Case", "case_data", "case_recipe"]
+__all__ = ["LIBRARY", "OTHER_FORMS", "OUT_OF_LIBRARY", "Case", "case_data", "case_recipe", "session_run_in_m"]
 
 #: The base each withheld effect is diagnosed against: the paper's baseline, unless the effect is part of it.
 BASE_FOR = {"contact": "capstan-simple", "stick_slip": "capstan-contact"}

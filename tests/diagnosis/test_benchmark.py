@@ -40,6 +40,17 @@ def test_each_new_case_kind_simulates_what_it_says():
     c = Case("single", ("actuator_cells",), "default", 3, 100)
     assert case_recipe(c).effects.get("actuator_cells").gain == case_recipe(c).effects.get("actuator_cells").gain
     assert np.std(case_recipe(c).effects.get("actuator_cells").gain) > 0
+    # a drift runs in over the case's session as the simulator's default does over a paper-sized one
+    for c in (
+        Case("single", ("friction_drift",), "double", 0, 1000),
+        Case("other-form", ("friction_drift~hyperbolic",), "default", 0, 2000),
+    ):
+        drift = case_recipe(c).effects.get("friction_drift")
+        assert drift.run_in_length_m == pytest.approx(0.5 * c.frames / 10000)
+    assert (
+        case_recipe(Case("single", ("friction_drift",), "double", 0, 1000)).effects.get("friction_drift").run_in_drop
+        == 0.4
+    )
     # other forms switch their family on in the other form
     forms = {
         "sensor_bias~warm_up": ("sensor_bias", "drift_form", "warm_up"),
