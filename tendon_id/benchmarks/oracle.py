@@ -69,7 +69,7 @@ def oracle_block(name: str, effects: Effects, robot=None, sensor_truth: dict | N
     if name == "load_cell_dynamics":
         if p.order != 1:
             raise ConfigError("no candidate block models a second-order load cell (load_cell_dynamics.order = 2)")
-        return cls(tau_s=p.tau_s, form="exact")  # the truth's structure; the diagnosis's candidate is commuted
+        return cls(tau_s=p.tau_s)  # the exact form, the truth's structure (the diagnosis's candidate is commuted)
     if name == "friction_drift":
         if p.form != "exponential":
             raise ConfigError("no candidate block models a hyperbolic run-in (friction_drift.form = 'hyperbolic')")

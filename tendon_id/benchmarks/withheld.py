@@ -25,8 +25,7 @@ from dataclasses import dataclass
 from tendon_id.benchmarks.forms import OTHER_FORMS, OUT_OF_LIBRARY, family_of, form_settings, post_process
 from tendon_id.data import Recording
 from tendon_id.datasets import load_recipe
-from tendon_id.sim import EFFECT_NAMES, EFFECT_OPTIONS, EFFECT_TYPES, Effects, simulate
-from tendon_id.sim.protocols import PAPER_FRAMES
+from tendon_id.sim import EFFECT_NAMES, EFFECT_OPTIONS, EFFECT_TYPES, PAPER_FRAMES, Effects, simulate
 from tendon_id.sim.sensor_chain import cell_errors
 
 __all__ = ["LIBRARY", "OTHER_FORMS", "OUT_OF_LIBRARY", "Case", "case_data", "case_recipe", "session_run_in_m"]
@@ -144,8 +143,9 @@ def session_run_in_m(frames: int) -> float:
     The simulator's default run-in distance is set so that the run-in is mostly done within a
     paper-sized session (:class:`tendon_id.sim.sensor_effects.FrictionDrift`): the paper's
     planned paths, 10 000 frames, slide 0.3-0.6 m through each guide.  A case's 1 000 training
-    frames slide 0.03-0.06 m, and its test frames up to 0.14 m (``snake12-paper``, seed 0), so
-    at 0.5 m the run-in hardly starts: friction moves by 2-5 %, and a refit of the true structure
+    frames slide 0.01-0.06 m, and its test frames up to 0.14 m (``snake12-paper``, seed 0), so
+    at 0.5 m the run-in hardly starts: friction moves by 0.5-2.4 % over the training sessions and
+    up to 5 % over the test ones, and a refit of the true structure
     lowered the held-out error by 0.001 N (default magnitude, seed 0), a case no diagnosis can
     name.  Scaled by the session's length, the case's run-in is as far along at its end as a
     paper-sized session's; the magnitude (the fall and the wear rate) is scaled as before.

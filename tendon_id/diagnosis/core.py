@@ -216,10 +216,12 @@ def diagnose(
             gain, draws = calibrated
             margins, null = [gain.margin], [gain]
     end_floor = None
-    if len(ladder) > 1 and not within_sensors(ladder[-1].heldout_rmse ** 2, floor_sim, settings):
-        # The end model's own floor: one that undoes a lag on its inputs amplifies their noise.  Its own
-        # generator, so that asking leaves every other draw of the diagnosis as it was.
-        end_rng = np.random.default_rng([settings.seed, 1])
+    read = next((k for k, r in enumerate(ladder) if k and r.effects[-1] in strained), len(ladder))
+    if 1 < read == len(ladder) and not within_sensors(ladder[-1].heldout_rmse ** 2, floor_sim, settings):
+        # The end model's own floor (one that undoes a lag on its inputs amplifies their noise), on the
+        # very draws of the base's floor (a generator of the same seed, whose first use that was), so
+        # that only the model differs and every other draw of the diagnosis stays as it was.
+        end_rng = np.random.default_rng(settings.seed)
         end_model = run.score.fits[0].model
         end_floor = family.noise_floor(splits[0], end_model, heldout, run.score.residual, end_rng, settings)
     verdict = decide(
@@ -300,7 +302,8 @@ def at_bound(block, fits: list[Fit], rel: float = 1e-3) -> list[str]:
     for p in block.param_names:
         label = f"{block.name}:{p}"
         for f in fits:
-            if label not in f.labels:
+            values = getattr(f.model, "block_params_", {}).get(block.name, {})
+            if label not in f.labels or p in block.inert(values):
                 continue
             k = f.labels.index(label)
             lo, hi, v = float(f.lower[k]), float(f.upper[k]), float(f.x[k])

@@ -119,10 +119,11 @@ def decide(
         them on data simulated from the base where its family can
         (:func:`~tendon_id.diagnosis.calibrate.calibrated_margins`).
     end_floor : NoiseFloor, optional
-        The noise floor of the ladder's end model, where it is above the base's: a model that
-        undoes a lag on its inputs amplifies their noise, so even at the truth it errs by more
-        than the base would.  What the ladder leaves is within what the sensors alone give when
-        it is within either floor.
+        The noise floor of the ladder's end model (of the ladder as read, up to a strained rung),
+        on the same draws as ``floor``.  A model that undoes a lag on its inputs amplifies their
+        noise, so even at the truth it errs by more than the base would.  Where its expected
+        floor is above ``floor``'s upper figure, what the ladder leaves is within what the
+        sensors alone give when it is within either floor.
     """
     # The paired models: the first rung (a structural one with its own margin) and the ladder's end.
     calibrated = margins is not None
@@ -169,7 +170,7 @@ def decide(
     effects = [e for e in ladder[-1].effects if e != "base"]
     remaining = 1.0 - closed
     mse_end = ladder[-1].heldout_rmse ** 2
-    own = end_floor is not None and end_floor.upper > floor.upper and within_sensors(mse_end, end_floor, settings)
+    own = end_floor is not None and end_floor.rmse > floor.upper and within_sensors(mse_end, end_floor, settings)
     if within_sensors(mse_end, floor, settings) or own:
         to = (
             f" to the ladder's model (its noise floor {end_floor.rmse:.3g} {unit}, up to {end_floor.upper:.3g} "
@@ -203,6 +204,16 @@ def is_rival(candidate, top, settings) -> bool:
 
     It does when it is significant in the first ranking, closes at least ``named_share`` of the
     gap and at most ``rival_share`` less than ``top``: the data hardly tell the two apart.
+
+    Parameters
+    ----------
+    candidate, top : CandidateResult
+        Two candidates of the first ranking.
+    settings : DiagnosisSettings
+
+    Returns
+    -------
+    bool
     """
     return (
         candidate.effect != top.effect
@@ -223,11 +234,23 @@ def parsimonious_lead(ranked: list, settings) -> list:
     on the benchmark's terminal-bias cases the actuator cells' six parameters (gain and offset
     per tendon) lowered the held-out error below the true structure's, and were named first in
     8 of 15, with the true bias as their rival in every one of those.  Among equals the best stays first.
+
+    Parameters
+    ----------
+    ranked : list of CandidateResult
+        The first ranking, best (lowest held-out error) first.
+    settings : DiagnosisSettings
+
+    Returns
+    -------
+    list of CandidateResult
+        The same candidates, the leader first and the others in their order.
     """
     if not ranked or not ranked[0].significant:
         return list(ranked)
     top = ranked[0]
-    group = [top] + [c for c in ranked[1:] if is_rival(c, top, settings)]
+    # A rival at the edge of its range mimics something: it does not lead an unstrained best.
+    group = [top] + [c for c in ranked[1:] if is_rival(c, top, settings) and (top.at_bound or not c.at_bound)]
     lead = min(group, key=lambda c: len(c.params))  # min keeps the first (the best) among equals
     return [lead] + [c for c in ranked if c is not lead]
 
@@ -250,12 +273,13 @@ def with_rivals(verdict: Verdict, ranked: list, settings) -> Verdict:
     if not rivals:
         return verdict
     told = ", ".join(f"{c.effect} ({min(c.gap_closed, 1.0):.0%})" for c in rivals)
-    simpler = any(c.gap_closed > top.gap_closed for c in rivals)  # named first as the simpler
-    how_much = "as much of the gap as" if simpler else "nearly as much of the gap as"
+    better = [c for c in rivals if c.gap_closed > top.gap_closed]  # named first as the simpler of these
+    how_much = "as much of the gap as" if better else "nearly as much of the gap as"
     text = (
         f"{verdict.text}; alone, {told} closes {how_much} {named} ({min(top.gap_closed, 1.0):.0%})"
-        f"{' or more' if simpler else ''}: these data hardly tell them apart"
+        f"{' or more' if better else ''}: these data hardly tell them apart"
     )
-    if simpler:
-        text += f", and {named} is named as the one with the fewest free parameters ({len(top.params)})"
+    if better:
+        more = ", ".join(f"{c.effect} ({len(c.params)})" for c in better)
+        text += f", and {named} has fewer free parameters ({len(top.params)}) than {more}"
     return dataclasses.replace(verdict, text=text, rivals=[c.effect for c in rivals])

@@ -116,6 +116,10 @@ class EffectBlock:
         """The optional signals of :attr:`needs` that ``inputs`` lack (``inputs.has(signal)``)."""
         return [need for need in self.needs if not inputs.has(need)]
 
+    def inert(self, values: dict) -> tuple[str, ...]:
+        """Parameters that change nothing at ``values`` (default none): their fitted values mean nothing."""
+        return ()
+
     def neutral(self) -> dict[str, float]:
         """The parameters' values that switch the effect off (default: 0 each)."""
         return {p: 0.0 for p in self.param_names}

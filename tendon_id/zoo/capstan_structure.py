@@ -78,7 +78,7 @@ class CapstanStructure:
     def smooth_part(self):
         """An unfitted model of this one's law and tendon-independent routing and exponent blocks: its part
         linear in the law."""
-        blocks = [b for b in self.block_objects if b.stage in LINEAR_STAGES and not b.per_tendon]
+        blocks = [b for b in self.block_objects if b.stage in LINEAR_STAGES and not b.per_tendon and b.multiplier]
         return self.general()(mu_law=self.mu_law, blocks=blocks, tying=self.tying)
 
     def free_parameters(self) -> list[tuple[str, str, tuple[float, float], float]]:
@@ -103,7 +103,7 @@ class CapstanStructure:
         Only tendon-independent routing and exponent blocks, and no free parameter but geometric
         ones (which calibration profiles out: :mod:`tendon_id.calibration.law_geometry`).
         """
-        nonlinear = any(b.stage not in LINEAR_STAGES or b.per_tendon for b in self.block_objects)
+        nonlinear = any(b.stage not in LINEAR_STAGES or b.per_tendon or not b.multiplier for b in self.block_objects)
         return not nonlinear and len(self.free_parameters()) == len(self.geometric_parameters())
 
     # ---- forward model (tendon_id.zoo.chain) ------------------------------------------
@@ -132,14 +132,14 @@ class CapstanStructure:
         """Product of the tendon-independent exponent blocks' factors at the backbone wrap, shape (T, N-1, 1).
 
         The linear design of :class:`~tendon_id.calibration.problem.LawProblem` uses it; per-tendon blocks
-        (wraps, sliding speeds) count as 1 there.
+        (wraps, sliding speeds) and filters over time (:attr:`Block.multiplier`) count as 1 there.
         """
         values = self.block_params() if values is None else values
         wrap = self.backbone(inputs, values)
         ctx = HookContext(inputs, np.array([inputs.n_modules - 1]), np.arange(3), alpha=wrap[:, :, None, None])
         m = np.ones(wrap.shape + (1, 1))
         for b in self.block_objects:
-            if b.stage == "exponent" and not b.per_tendon:
+            if b.stage == "exponent" and not b.per_tendon and b.multiplier:
                 m = b.exponent(m, ctx, values.get(b.name, {}))
         return m[..., 0]
 

@@ -7,8 +7,9 @@ slip (``ln T_out = ln T_in - phi``) unless a propagation block says otherwise (t
 play operator of the nonsmooth capstan); the output blocks act on what leaves the
 guide.  Everything is vectorised over frames, sets and tendons; the only Python loop
 runs over the guides, because guide ``k + 1`` is fed by guide ``k``.  The chain starts from the
-actuator-side readings as the ``actuator`` blocks correct them (a cell's calibration error and lag
-undone), and the ``sensor`` blocks turn its terminal tension into the terminal cell's reading.
+actuator-side readings as the ``actuator`` blocks correct them (a cell's calibration error, and in
+its exact form its lag, undone), and the ``sensor`` blocks turn its terminal tension into the
+terminal cell's reading.
 """
 
 from __future__ import annotations
@@ -68,9 +69,9 @@ def exponent_terms(blocks: Sequence[Block], inputs, values: dict, sets: NDArray,
     _, alpha, cos_alpha = last
     ctx = replace(ctx, alpha=alpha)
     scaled = alpha
-    for b in blocks:
-        if b.stage == "exponent":
-            scaled = b.exponent(scaled, ctx, values.get(b.name, {}))
+    # Factors first, then filters over time (a lag of the wrap), which act on the whole exponent.
+    for b in sorted((b for b in blocks if b.stage == "exponent"), key=lambda b: not b.multiplier):
+        scaled = b.exponent(scaled, ctx, values.get(b.name, {}))
     return ExponentTerms(cos_alpha, scaled, ctx)
 
 

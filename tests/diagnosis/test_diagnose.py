@@ -269,7 +269,7 @@ def test_the_simplest_of_near_equal_candidates_leads_the_ladder():
     assert [c.effect for c in lead] == ["sensor_bias", "actuator_cells", "viscoelastic"]
     out = with_rivals(Verdict("explained", ["sensor_bias"], 0.0, "explained by sensor_bias"), lead, s)
     assert out.rivals == ["actuator_cells"]
-    assert "or more" in out.text and "fewest free parameters (3)" in out.text
+    assert "or more" in out.text and "fewer free parameters (3) than actuator_cells (6)" in out.text
     # The best stays first: a simpler candidate 0.11 behind is no rival, nor is an insignificant one,
     # and among rivals with as many parameters the better leads.
     far = cand("sensor_bias", 0.92, 3)
@@ -277,6 +277,9 @@ def test_the_simplest_of_near_equal_candidates_leads_the_ladder():
     assert parsimonious_lead([cells, cand("sensor_bias", 1.0, 3, False)], s)[0] is cells
     assert parsimonious_lead([cells, cand("clock_skew", 1.0, 6)], s)[0] is cells
     assert parsimonious_lead([cand("x", 0.9, 1, False), bias], s)[0].effect == "x"  # nothing significant leads
+    # A rival at the edge of its range does not lead an unstrained best.
+    strained = dataclasses.replace(bias, at_bound=("offset",))
+    assert parsimonious_lead([cells, strained], s)[0] is cells
 
 
 def test_what_the_ladder_leaves_may_be_within_its_own_models_floor():
@@ -294,10 +297,13 @@ def test_what_the_ladder_leaves_may_be_within_its_own_models_floor():
     v = decide(mse0, floor, (1.0, 3.0), [base, lag], s, end_floor=amplified)
     assert (v.kind, v.effects) == ("explained", ["load_cell_dynamics"])
     assert "to the ladder's model (its noise floor 2.07 N" in v.text
-    # A floor no higher than the base's changes nothing, nor does one the ladder's end is beyond.
+    # A floor no higher than the base's upper figure changes nothing, nor does one the ladder's end is beyond.
     assert decide(mse0, floor, (1.0, 3.0), [base, lag], s, end_floor=NoiseFloor(1.3, 1.4, "by hand")).kind == (
         "unexplained"
     )
+    assert decide(mse0, floor, (1.0, 3.0), [base, lag], s, end_floor=NoiseFloor(1.44, 2.2, "by hand")).kind == (
+        "unexplained"
+    )  # its upper figure is above, by chance, but its expected floor is not
     assert decide(mse0, floor, (1.0, 3.0), [base, lag], s, end_floor=NoiseFloor(1.5, 1.6, "by hand")).kind == (
         "unexplained"
     )  # 1.83**2 > 1.25 * 1.6**2

@@ -60,9 +60,12 @@ def test_block_registers_and_checks_its_settings():
     assert probes["friction_drift:run_in_length_m"] == short
     assert probes["friction_drift:run_in_drop"]["run_in_length_m"] == 0.5
     assert "run_in_length_m" not in block.settings()  # fitted, not a setting
+    # Without a fall the run-in distance is inert: the diagnosis does not read it at a bound as strain.
+    assert block.inert({"run_in_drop": 0.0, "run_in_length_m": 5.0}) == ("run_in_length_m",)
+    assert block.inert({"run_in_drop": 0.2, "run_in_length_m": 5.0}) == ()
+    assert FrictionDrift(run_in_length_m=0.005).run_in_length_m == 0.005  # any start; a fit clips it
     bad_settings = (
         {"run_in_length_m": 0.0},
-        {"run_in_length_m": 6.0},
         {"prior_sliding_m": -1.0},
         {"run_in_drop": 0.95},
         {"wear_rate_per_m": "x"},

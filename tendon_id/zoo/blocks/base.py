@@ -15,7 +15,8 @@ stage               hook                                       what it changes
 ``wrap``            ``wrap(alpha, ctx, values) -> alpha``      the wrap the law sees
 ``routing``         ``routing(alpha, ctx, values) -> alpha``   the routing wrap added to it
 ``exponent``        ``exponent(phi, ctx, values) -> phi``      the capstan exponent; linear in
-                                                               ``phi`` (a friction multiplier)
+                                                               ``phi`` (a friction multiplier,
+                                                               or a filter over time)
 ``edges``           ``edges(lo, hi, ctx, values) -> lo, hi``   a guide's slip edges
 ``start``           ``start(log_in, phi, n_pass, ctx,          the share of each guide's band
                     values) -> share``                         a trajectory starts at (default
@@ -121,8 +122,8 @@ class Block(EffectBlock):
         One of :data:`STAGES`.
     also : tuple of str
         Further stages the block acts at, with their hooks (class attribute): one effect seen in
-        two places (a load cell's lag, undone on the actuator-side readings and applied to the
-        terminal one).
+        several places (a load cell's lag: undone on the actuator-side readings and applied to the
+        terminal one, or, to first order, applied to the wrap, each in one of its forms).
     measurement_order : int
         Where the effect sits in a load cell's measurement chain (class attribute), for the
         ``actuator`` and ``sensor`` stages: 0 the cell's lag, 1 the instant it is sampled at, 2
@@ -134,6 +135,11 @@ class Block(EffectBlock):
     per_tendon : bool
         The block's factor differs by set or tendon (it cannot enter the linear design
         of :class:`~tendon_id.calibration.problem.LawProblem`).
+    multiplier : bool
+        The ``exponent`` hook multiplies the exponent frame by frame (class attribute; default
+        True).  False for a filter over time (a lag of the wrap): it is still linear in the
+        law, but is no factor of the linear design, and the chain applies it after every
+        multiplier, so that it acts on the whole exponent whatever the blocks' order.
     param_names : tuple of str
         Free parameters (calibrated with the law unless ``fixed``).
     bounds : dict
@@ -160,6 +166,7 @@ class Block(EffectBlock):
     measurement_order: ClassVar[int] = 2
     whole_chain: ClassVar[bool] = False
     per_tendon: ClassVar[bool] = False
+    multiplier: ClassVar[bool] = True
     geometric: ClassVar[bool] = False
     param_names: tuple[str, ...] = ()
     bounds: dict = field(default_factory=dict)

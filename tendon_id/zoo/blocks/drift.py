@@ -17,6 +17,8 @@ DRIFT_BOUNDS = {"run_in_drop": (0.0, 0.9), "wear_rate_per_m": (0.0, 2.0), "run_i
 #: Run-in distance of the short-run-in signature column [m]: a run-in done within a tenth of a
 #: paper-sized session's sliding (:meth:`FrictionDrift.probes`).
 SHORT_RUN_IN_M = 0.05
+#: A run-in fall [-] at or below which the run-in distance is inert (a thousandth of friction).
+INERT_DROP = 1e-3
 
 
 @dataclass(frozen=True)
@@ -84,10 +86,14 @@ class FrictionDrift(Block):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
                 raise ConfigError(f"friction_drift.{name} must be a number, got {value!r}")
-        for name, unit in (("run_in_drop", ""), ("wear_rate_per_m", " per m"), ("run_in_length_m", " m")):
+        for name, unit in (("run_in_drop", ""), ("wear_rate_per_m", " per m")):
             lo, hi = DRIFT_BOUNDS[name]
             if not lo <= getattr(self, name) <= hi:
                 raise ConfigError(f"friction_drift.{name} must lie in [{lo}, {hi}]{unit}, got {getattr(self, name)!r}")
+        if not 0 < self.run_in_length_m < np.inf:  # any start: a fit clips it into its bounds
+            raise ConfigError(
+                f"friction_drift.run_in_length_m must be a positive distance in m, got {self.run_in_length_m!r}"
+            )
         if not 0 <= self.prior_sliding_m < np.inf:
             raise ConfigError(
                 f"friction_drift.prior_sliding_m must be a distance >= 0 in m, got {self.prior_sliding_m!r}"
@@ -95,6 +101,10 @@ class FrictionDrift(Block):
 
     def settings(self) -> dict:
         return {"prior_sliding_m": float(self.prior_sliding_m)}
+
+    def inert(self, values: dict) -> tuple[str, ...]:
+        """Without a run-in fall the run-in distance changes nothing: its value, bound or not, says nothing."""
+        return ("run_in_length_m",) if float(values.get("run_in_drop", 0.0)) <= INERT_DROP else ()
 
     def probes(self) -> list[tuple[str, dict[str, float]]]:
         """Signature columns: a run-in over ``L``, a run-in over :data:`SHORT_RUN_IN_M`, and wear.

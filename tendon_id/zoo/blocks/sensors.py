@@ -137,8 +137,8 @@ class ClockSkew(Block):
         return shifted_read(tension, skew / ctx.inputs.dt, ctx.inputs.reset)
 
 
-#: Forms of :class:`LoadCellDynamics`.
-LAG_FORMS = ("commuted", "exact")
+#: Forms of :class:`LoadCellDynamics`, the default first.
+LAG_FORMS = ("exact", "commuted")
 
 
 @dataclass(frozen=True)
@@ -149,14 +149,14 @@ class LoadCellDynamics(Block):
     (``y = T``) at each trajectory's first frame (:func:`friction_models.first_order_lowpass`),
     the actuator-side cells and the terminal ones alike.  The block has two forms:
 
-    * ``"exact"`` undoes the lag on the actuator-side readings (the filter's exact inverse,
+    * ``"exact"`` (default) undoes the lag on the actuator-side readings (the filter's exact inverse,
       :func:`friction_models.first_order_inverse`) and applies it to the predicted terminal
       reading: at the true settings it is the simulator.  The inverse amplifies the readings'
       noise by about ``(1 + a) / (1 - a)`` at the highest frequency (2.2 at the simulator's
       default, 0.1 s at 10 Hz; 4.1 at 0.2 s), and a stick/slip model ratchets on it: with the
       simulator's 1 N noise, the block at the true lag and law predicted the held-out
       terminal reading worse than no block at all (0.1 s: 2.0 against 1.6 N RMSE).
-    * ``"commuted"`` (default) feeds the lagged readings as they are and lags the wrap the
+    * ``"commuted"`` feeds the lagged readings as they are and lags the wrap the
       capstan exponent scales instead (an ``exponent``-stage filter, :attr:`stage`).  A lag
       commutes with a ratio to first order: with ``H = 1 - tau d/dt + O(tau^2)``,
       ``H[r(alpha) T] = r(H alpha) H[T] + O(tau^2)``, so a terminal tension that the cells
@@ -165,7 +165,9 @@ class LoadCellDynamics(Block):
       is not lagged, which leaves out a fraction ``A alpha sin(alpha) / mu`` of the first-order
       term (a few percent at the snake's wraps).  On the withheld-effect benchmark's lags (5
       seeds; :doc:`/guide/benchmarks`) it ranked first in 5 of 5 at 0.1 s and 0.2 s, where the
-      exact form did in 1 and 2.
+      exact form did in 1 and 2, so it is the diagnosis's candidate.  Its chain runs on the
+      lagged tensions, so its joint-side estimates (``predict``) lag too: a model for
+      estimating tensions takes the exact form.
 
     ``tau_s = 0`` is no lag, exactly, in either form.
 
@@ -173,18 +175,19 @@ class LoadCellDynamics(Block):
     ----------
     tau_s : float
         Time constant [s], ``>= 0``.  Default 0.
-    form : {"commuted", "exact"}
-        As above (a setting, not fitted).
+    form : {"exact", "commuted"}
+        As above (a setting, not fitted).  Default ``"exact"``.
     """
 
     name = "load_cell_dynamics"
     effect = "load_cell_dynamics"
     stage = "exponent"
     also = ("actuator", "sensor")
+    multiplier = False  # the commuted form's exponent hook is a filter over time
     measurement_order = 0  # the cell and its amplifier filter the force before anything else
     regressor = "the rate of tension change, at the cell's time scale: residual lags the terminal tension"
     tau_s: float = 0.0
-    form: str = "commuted"
+    form: str = "exact"
     param_names: tuple[str, ...] = ("tau_s",)
     bounds: dict = field(default_factory=lambda: {"tau_s": (0.0, 2.0)})
     probe: dict = field(default_factory=lambda: {"tau_s": 0.1}, compare=False, repr=False)
@@ -201,9 +204,9 @@ class LoadCellDynamics(Block):
         return {"form": self.form}
 
     @classmethod
-    def from_dict(cls, d: dict) -> LoadCellDynamics:
-        """The block of :meth:`to_dict`; one saved before it had forms was fitted in the exact form, and keeps it."""
-        return cls(**{"form": "exact", **d})
+    def localise(cls, model, inputs, A, B, values, residual: NDArray) -> LoadCellDynamics:
+        """The diagnosis's candidate: the commuted form, which no noise amplification hides (above)."""
+        return cls(form="commuted")
 
     def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
         tau = _tau(values)
