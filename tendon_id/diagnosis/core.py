@@ -37,7 +37,7 @@ from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult
 from tendon_id.diagnosis.runner import Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
 from tendon_id.diagnosis.stats import gap_closed
-from tendon_id.diagnosis.verdict import decide, parsimonious_lead, with_rivals, within_sensors
+from tendon_id.diagnosis.verdict import decide, parsimonious_lead, read_ladder, with_rivals, within_sensors
 from tendon_id.diagnosis.where import gap_map
 from tendon_id.errors import ConfigError
 from tendon_id.family.fit import Fit
@@ -216,8 +216,9 @@ def diagnose(
             gain, draws = calibrated
             margins, null = [gain.margin], [gain]
     end_floor = None
-    read = next((k for k, r in enumerate(ladder) if k and r.effects[-1] in strained), len(ladder))
-    if 1 < read == len(ladder) and not within_sensors(ladder[-1].heldout_rmse ** 2, floor_sim, settings):
+    if 1 < len(read_ladder(ladder, strained)) == len(ladder) and not within_sensors(
+        ladder[-1].heldout_rmse ** 2, floor_sim, settings
+    ):
         # The end model's own floor (one that undoes a lag on its inputs amplifies their noise), on the
         # very draws of the base's floor (a generator of the same seed, whose first use that was), so
         # that only the model differs and every other draw of the diagnosis stays as it was.

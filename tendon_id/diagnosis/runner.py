@@ -31,6 +31,7 @@ class Score:
 
 def refit_and_score(family, structure, train, test, start, max_nfev: int, tol=None) -> tuple[Fit, NDArray]:
     """One job: refit ``structure`` on ``train`` from ``start``, and its residual on ``test``."""
+    # A family written before ``tol`` existed takes four arguments: ask for a tolerance only when one is set.
     fit = (
         family.refit(structure, train, start, max_nfev)
         if tol is None

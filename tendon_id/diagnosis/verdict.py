@@ -39,6 +39,13 @@ def fixed_margins(ladder: list, settings, structural: set | frozenset = ()) -> l
     return first + [settings.min_excess] if len(ladder) > 2 else first
 
 
+def read_ladder(ladder: list, strained: set | frozenset = ()) -> list:
+    """The ladder as the verdict reads it: up to its first ``strained`` rung, a block fitted to the far
+    edge of its plausible range, which mimics something and is not named."""
+    upto = next((k for k, r in enumerate(ladder) if k and r.effects[-1] in strained), len(ladder))
+    return ladder[:upto]
+
+
 def shows_gap(
     mse0: float,
     floor: NoiseFloor,
@@ -162,8 +169,7 @@ def decide(
             f"unexplained: the best candidate, {e}, closes {ladder[1].gap_closed:.0%} of the gap only by reaching "
             "the edge of its plausible range (physics outside the library?)",
         )
-    upto = next((k for k, r in enumerate(ladder) if k and r.effects[-1] in strained), len(ladder))
-    ladder = ladder[:upto]
+    ladder = read_ladder(ladder, strained)
     if len(ladder) < 2:
         return Verdict("unexplained", [], 1.0, "unexplained: no candidate closes a significant part of the gap")
     closed = min(max(ladder[-1].gap_closed, 0.0), 1.0)

@@ -208,23 +208,22 @@ class LoadCellDynamics(Block):
         """The diagnosis's candidate: the commuted form, which no noise amplification hides (above)."""
         return cls(form="commuted")
 
-    def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
+    def _lag(self, values: dict, form: str) -> float:
+        """The time constant [s] where ``form`` is this block's, else 0 (the hook passes its array through)."""
         tau = _tau(values)
-        if self.form != "commuted" or tau == 0.0:
-            return phi
-        return first_order_lowpass(phi, ctx.inputs.dt, tau, ctx.inputs.reset)
+        return tau if self.form == form else 0.0
+
+    def exponent(self, phi: NDArray, ctx, values: dict) -> NDArray:
+        tau = self._lag(values, "commuted")
+        return phi if tau == 0.0 else first_order_lowpass(phi, ctx.inputs.dt, tau, ctx.inputs.reset)
 
     def actuator(self, tension: NDArray, ctx, values: dict) -> NDArray:
-        tau = _tau(values)
-        if self.form != "exact" or tau == 0.0:
-            return tension
-        return first_order_inverse(tension, ctx.inputs.dt, tau, ctx.inputs.reset)
+        tau = self._lag(values, "exact")
+        return tension if tau == 0.0 else first_order_inverse(tension, ctx.inputs.dt, tau, ctx.inputs.reset)
 
     def sensor(self, tension: NDArray, ctx, values: dict) -> NDArray:
-        tau = _tau(values)
-        if self.form != "exact" or tau == 0.0:
-            return tension
-        return first_order_lowpass(tension, ctx.inputs.dt, tau, ctx.inputs.reset)
+        tau = self._lag(values, "exact")
+        return tension if tau == 0.0 else first_order_lowpass(tension, ctx.inputs.dt, tau, ctx.inputs.reset)
 
 
 def _tau(values: dict) -> float:
