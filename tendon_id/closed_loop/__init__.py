@@ -3,6 +3,7 @@
 See :doc:`/guide/closed_loop`.
 
 * :mod:`~tendon_id.closed_loop.plant`: joint dynamics driven through the truth transmission.
+* :mod:`~tendon_id.closed_loop.statics`: every tendon's moment on every joint it crosses, gravity, inertia.
 * :mod:`~tendon_id.closed_loop.controller`: the hybrid tension and configuration controller.
 * :mod:`~tendon_id.closed_loop.estimators`: the oracle and fitted zoo models, frame by frame.
 * :mod:`~tendon_id.closed_loop.run`: the step-and-return tests and their Table III metrics.

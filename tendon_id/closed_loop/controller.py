@@ -2,10 +2,16 @@
 
 Two loops per joint ``k``, run once per controller period ``T_c``:
 
-* **Configuration (outer).** PI on the joint angles with the backbone's stiffness fed forward::
+* **Configuration (outer).** PI on the joint angles, with what the joint's own set must
+  overcome fed forward: the elastic return at the reference, and the moments of everything
+  else acting on the joint, every distal set's tendons that pass through it, at the
+  estimator's tensions ``T_hat[k, j]`` (``j > k``), and gravity::
 
-      tau_d = K theta_ref + k_p e + k_i sum(e) T_c,       e = theta_ref - theta
+      tau_d = -tau_e(theta_ref) + k_p e + k_i sum(e) T_c - tau_pass(theta, T_hat) - tau_g(theta)
 
+  with ``e = theta_ref - theta`` (:mod:`~tendon_id.closed_loop.statics`).  This is why the
+  intermediate estimates matter: a set's tendons load every joint on their way to their own,
+  and the controller can only cancel that load as well as it knows their tensions there.
   The desired joint torque becomes desired joint-side tensions by the minimum-tension
   distribution of a three-tendon joint (tendons 120 deg apart, ``sum_i u_i = 0``)::
 
@@ -107,8 +113,11 @@ class HybridController:
         Tendon azimuths [rad].
     hole_radius : float
         Moment arm ``r`` [m].
-    stiffness : float
-        The backbone stiffness ``K`` fed forward [N m/rad].
+    robot : Plant
+        The robot's statics the controller knows: its geometry, masses and elastic return
+        (:meth:`~tendon_id.closed_loop.plant.Plant.elastic_moments`,
+        :meth:`~tendon_id.closed_loop.plant.Plant.static_moments`,
+        :meth:`~tendon_id.closed_loop.plant.Plant.crossing_jacobian`), never its state or friction.
     period : float
         Controller period ``T_c`` [s] (0.1 at 10 Hz).
     max_tension_n : float
@@ -120,12 +129,14 @@ class HybridController:
         gains: HybridGains,
         psi: NDArray,
         hole_radius: float,
-        stiffness: float,
+        robot,
         period: float,
         max_tension_n: float,
     ):
         self.gains, self.psi, self.hole_radius = gains, np.asarray(psi), float(hole_radius)
-        self.stiffness, self.period, self.max_tension_n = float(stiffness), float(period), float(max_tension_n)
+        self.robot, self.period, self.max_tension_n = robot, float(period), float(max_tension_n)
+        n = self.psi.shape[0]
+        self._passing = (np.arange(n)[:, None] < np.arange(n)[None, :])[:, :, None]  # sets j > k at joint k
         self.integral = np.zeros((self.psi.shape[0], 2))
         self.last_command: NDArray | None = None  # u(t-1) [N]
         self.last_desired: NDArray | None = None  # T_d(t-1) [N]
@@ -137,14 +148,19 @@ class HybridController:
         ----------
         ref, angles : ndarray, shape (N, 2)
             Reference and measured joint angles [rad].
-        actuator, estimate : ndarray, shape (N, 3)
-            Measured actuator-side tensions and the estimator's joint side [N].
+        actuator : ndarray, shape (N, 3)
+            Measured actuator-side tensions [N].
+        estimate : ndarray, shape (N, N, 3)
+            The estimator's chain ``T_hat[k, j, i]`` [N]; its diagonal is each set's joint side.
         """
         g = self.gains
         err = ref - angles
         self.integral = np.clip(self.integral + g.ki * err * self.period, -g.integral_limit, g.integral_limit)
-        torque = self.stiffness * ref + g.kp * err + self.integral
-        desired = tension_distribution(torque, self.psi, self.hole_radius, g.pretension_n)
+        hold = -self.robot.elastic_moments(ref[None])[0] + g.kp * err + self.integral
+        n = estimate.shape[0]
+        own = estimate[np.arange(n), np.arange(n)]
+        desired = self.distribute(hold, angles, estimate)
+        estimate = own
         ratio = estimate / actuator  # r_hat: the estimator's transmission of each tendon
         if self.last_command is None:  # the first period: the full inversion of the estimate
             u = desired / ratio
@@ -153,3 +169,27 @@ class HybridController:
         u = np.clip(u, 0.5 * g.pretension_n, self.max_tension_n)  # the clip is also the anti-windup
         self.last_command, self.last_desired = u, desired
         return u
+
+    def distribute(self, hold: NDArray, angles: NDArray, estimate: NDArray) -> NDArray:
+        """Desired joint-side tensions [N], shape (N, 3): each joint's own set exerts ``hold`` less its load.
+
+        The load on joint ``k`` is gravity's and that of every distal set's tendons passing through
+        it, at the tension each will have there once it holds its own desired joint side: the
+        desired ``T_d[j]`` carried back to joint ``k`` by the estimator's chain,
+        ``T_d[j] T_hat[k, j] / T_hat[j, j]``.  The distal sets come first, so the recursion runs
+        from the tip to the base, one joint at a time; loading a joint with what its distal sets
+        read now instead lags one period per joint, and the loop hunts.
+        """
+        n = estimate.shape[0]
+        own = estimate[np.arange(n), np.arange(n)]
+        shape = np.where(self._passing, np.nan_to_num(estimate) / own[None], 0.0)  # T_hat[k, j] / T_hat[j, j]
+        jac = self.robot.crossing_jacobian(angles[None])[0]  # (N, N, 3, 2)
+        load = self.robot.static_moments(angles[None], np.zeros((1, n, n, 3)))[0]  # gravity alone
+        desired = np.empty((n, 3))
+        g = self.gains
+        for k in range(n - 1, -1, -1):
+            passing = -np.einsum("ji,jia->a", shape[k, k + 1 :] * desired[k + 1 :], jac[k, k + 1 :])
+            desired[k] = tension_distribution(
+                (hold[k] - load[k] - passing)[None], self.psi[k : k + 1], self.hole_radius, g.pretension_n
+            )[0]
+        return desired

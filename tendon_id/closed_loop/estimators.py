@@ -1,9 +1,13 @@
-"""Estimators in the loop: each maps one frame of measurements to joint-side tensions.
+"""Estimators in the loop: each maps one frame of measurements to the whole tension chain.
 
-A fitted zoo model runs causally, one frame at a time: through its own streaming engine
-where it has one (``pg-chtc``, ``pg-chtc-ns``), else by predicting on the whole history so
-far and keeping the last frame.  Every zoo model's ``predict`` is causal, so the two agree;
-the history route costs O(t) per frame, which a run of a few hundred frames affords.
+The controller needs every ``T[k, j, i]``, a set's tension at each joint it crosses, not only
+at its own (:mod:`~tendon_id.closed_loop.controller`).  A fitted zoo model runs causally, one
+frame at a time, by predicting its chain (``predict_chain``) on the whole history so far and
+keeping the last frame.  Every zoo model's prediction is causal, so this is what it would
+give online; the history route costs O(t) per frame, which a run of a few hundred frames
+affords.  Where the plant drives each joint by its own set only (``JointDynamics(statics=
+"own_set")``) the controller reads the chain's diagonal alone, and a model with a streaming
+engine (``pg-chtc``, ``pg-chtc-ns``) runs through it, which gives each set's own joint only.
 """
 
 from __future__ import annotations
@@ -25,19 +29,20 @@ class InLoopEstimator:
 
     name = "estimator"
 
-    def reset(self) -> None:
-        """Forget the last run."""
+    def reset(self, needs_chain: bool = True) -> None:
+        """Forget the last run; ``needs_chain`` False: only the chain's diagonal will be read."""
 
     def step(self, angles: NDArray, actuator: NDArray, truth: NDArray) -> NDArray:
-        """Joint-side estimate (N, 3) [N] from measured angles (N, 2) [rad] and actuator side (N, 3) [N].
+        """Chain estimate ``T_hat[k, j, i]`` (N, N, 3) [N] from angles (N, 2) [rad] and actuator side (N, 3) [N].
 
-        ``truth`` is the measured true joint side; only the oracle reads it.
+        ``truth`` is the measured true chain (N, N, 3); only the oracle reads it.  Entries off the
+        path (``k > j``) are not read.
         """
         raise NotImplementedError
 
 
 class OracleInLoop(InLoopEstimator):
-    """The true transmission: joint-side load cells at every joint (the paper's robot has one)."""
+    """The true transmission: a load cell on every tendon at every joint it crosses."""
 
     name = ORACLE
 
@@ -61,21 +66,23 @@ class ModelInLoop(InLoopEstimator):
     def __init__(self, model, name: str, dt: float):
         model.check_fitted()
         self.model, self.name, self.dt = model, name, float(dt)
-        self.stream = None
-        streamer = getattr(model, "streamer", None)
-        if streamer is not None and not getattr(model, "uses_prior_", False):
-            self.stream = streamer()
+        self.streamer = getattr(model, "streamer", None)
+        if getattr(model, "uses_prior_", False):
+            self.streamer = None
         self.reset()
 
-    def reset(self) -> None:
-        if self.stream is not None:
-            self.stream.reset()
+    def reset(self, needs_chain: bool = True) -> None:
+        self.stream = None if needs_chain or self.streamer is None else self.streamer()
         self.angles: list[NDArray] = []
         self.actuator: list[NDArray] = []
 
     def step(self, angles: NDArray, actuator: NDArray, truth: NDArray) -> NDArray:
-        if self.stream is not None:
-            return self.stream.step(angles, actuator)
+        if self.stream is not None:  # each set's own joint only: the rest of the chain is unknown (NaN)
+            own = self.stream.step(angles, actuator)
+            n = own.shape[0]
+            chain = np.full((n, n, 3), np.nan)
+            chain[np.arange(n), np.arange(n)] = own
+            return chain
         self.angles.append(angles)
         self.actuator.append(actuator)
         n_frames = len(self.angles)
@@ -88,7 +95,7 @@ class ModelInLoop(InLoopEstimator):
             terminal=act[:, -1],  # a placeholder label: predict never reads labels (docs/guide/data.rst)
             meta={"sample_rate_hz": 1.0 / self.dt},
         )
-        return self.model.predict(rec)[-1]
+        return self.model.predict_chain(rec)[-1]
 
 
 def in_loop(name: str, model=None, dt: float = 0.1) -> InLoopEstimator:

@@ -1,29 +1,34 @@
 """The simulated robot of the closed loop: joint dynamics driven through the truth transmission.
 
-Per joint and bending axis, a linear second-order joint (:doc:`/guide/closed_loop`)::
+Per joint ``k`` (two bending axes), a second-order joint (:doc:`/guide/closed_loop`)::
 
-    I theta'' + c theta' + K theta = tau,     tau_k = r sum_i T[k, k, i] (cos psi_ki, sin psi_ki)
+    I_k theta_k'' + c_k theta_k' = tau_k
+    tau_k = - sum_{j >= k} sum_i T[k, j, i] dl_kji/dtheta_k  + tau_g,k + tau_e,k
 
-``tau_k`` is the moment of set ``k``'s joint-side tensions about joint ``k``'s pivot through
-the hole radius ``r`` (the transpose of the tendon Jacobian, ``dl_i = -r (cos psi, sin psi) .
-dtheta``, :doc:`/guide/geometry`; a tendon pulls its joint towards its own azimuth).  The tendons of distal
-sets pass joint ``k`` as well; the plant follows the paper's hybrid controller [3] and the
-issue's statement of it, where joint ``k`` is driven by its own set, which holds exactly when
-pass-through tendons run through the joint at equal tension.
+* every tendon that crosses joint ``k``, its own set's and the distal sets' passing through,
+  pulls on it with the tension it has across the joint (the tendon Jacobian's transpose,
+  :func:`~tendon_id.closed_loop.statics.tendon_moments`, exact in the pose);
+* gravity and a payload, where the recipe's :class:`~tendon_id.sim.body.Body` switches them on
+  (:func:`~tendon_id.closed_loop.statics.gravity_moments`);
+* the joint's elastic return ``tau_e``, the one the simulator's actuation assumes holds a bend
+  (:func:`~tendon_id.closed_loop.statics.elastic_return`): stiffness ``g r`` towards a tendon,
+  half that between two;
+* ``I_k`` the composite inertia of the chain distal to the joint
+  (:func:`~tendon_id.closed_loop.statics.composite_inertia`) and ``c_k = 2 zeta sqrt(g r I_k)``.
 
 The low-level puller-follower controller realises a commanded actuator tension with a first
 order lag ``tau_a`` (the paper gives no figure; 50 ms is a typical tension loop).  Between
-controller updates the plant integrates at ``dt`` with the exact zero-order-hold discretisation
-of the linear joint (matrix exponential, so the step is limited by how fast ``tau`` changes,
-not by stability), and the transmission is stepped at every ``dt`` with its stick/slip and
-viscoelastic state carried (:class:`~tendon_id.sim.stepper.TransmissionStepper`).
+controller updates the plant integrates at ``dt``: the elastic return is linear within each
+sector of bend directions where the same tendons pull (:func:`elastic_return`), so each joint's
+linear part is discretised exactly for its current sector (zero-order hold, matrix exponential,
+precomputed for every sector), and the tendons' and gravity's moments are held over the step.
+The transmission is stepped at every ``dt`` with its stick/slip and viscoelastic state carried
+(:class:`~tendon_id.sim.stepper.TransmissionStepper`), and gives the whole chain ``T[k, j, i]``.
 
-Why 1 ms is small enough: the joint's poles sit at ``sqrt(K/I)`` (about 110 rad/s with the
-defaults), so a 1 ms step resolves them tenfold and more, and the exact discretisation leaves only
-the torque's change within a step, which the 50 ms actuator lag keeps small.  Measured
-(``tests/closed_loop``): halving the step moves the closed-loop angles by less than an encoder
-count on average and the RMS error by under 5 %.  Single samples can differ by more, because
-near a slip threshold the loop amplifies any perturbation, the step's own rounding included.
+Why 1 ms is small enough: the stiffest joint, the last, with one link's inertia, has its poles
+near ``sqrt(g r / I)``; the held moments change within a step only as fast as the 50 ms actuator
+lag and the joints move.  Measured (``tests/closed_loop``): halving the step moves the closed-loop
+angles by less than an encoder count on average and the RMS error by under 5 %.
 """
 
 from __future__ import annotations
@@ -34,6 +39,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
+from tendon_id.closed_loop.statics import (
+    composite_inertia,
+    crossing_jacobian,
+    elastic_return,
+    gravity_moments,
+    tendon_moments,
+)
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry, tendon_azimuths
 from tendon_id.sim import Recipe
@@ -48,49 +60,88 @@ class JointDynamics:
 
     Parameters
     ----------
-    inertia : float
-        ``I`` [kg m^2]: about three distal links of 0.1 kg at 0.1 m. Default 1e-3.
+    statics : {"own_set", "full"}
+        ``"full"``: every tendon crossing a joint pulls on it through the exact tendon Jacobian,
+        gravity and the payload act where the body switches them on, each joint carries its
+        composite inertia, and the elastic return follows the tendon arrangement (the module's
+        equations).  ``"own_set"`` (default, the earlier plant): joint ``k`` is driven by its own
+        set at first order, ``r sum_i T[k, k, i] u_ki``, with an isotropic stiffness ``g r`` and
+        1e-3 kg m^2 at every joint.  The default moves to ``"full"`` once the controller's gains
+        are tuned for it (issue 40).
+    inertia : float, optional
+        ``I`` [kg m^2] of every joint. Default (None): each joint's composite inertia, from the
+        recipe's :class:`~tendon_id.sim.body.Body` (1.1e-1 at the base to 6.6e-5 at the tip for
+        ``snake12-paper``'s robot) under ``"full"``; 1e-3 under ``"own_set"``.
     stiffness : float, optional
-        ``K`` [N m/rad], the backbone's elastic return.  Default (None): the recipe's
-        actuation gain times the hole radius, ``K = g r``, so that the open-loop protocols'
-        antagonistic tension ``g b`` holds the bend they command (:doc:`/guide/simulator` actuation).
+        An isotropic joint stiffness ``K`` [N m/rad] in place of the elastic return the actuation
+        assumes (:func:`~tendon_id.closed_loop.statics.elastic_return`), for tests and what-ifs.
+        Default (None): that elastic return, ``g r`` towards a tendon and half that between two,
+        under ``"full"``; ``g r`` in every direction under ``"own_set"``.
     damping_ratio : float
-        ``zeta`` [-]; ``c = 2 zeta sqrt(K I)``. Default 1 (a joint with hysteretic
-        friction in its bearings shows no ringing).
+        ``zeta`` [-]; ``c = 2 zeta sqrt(K I)`` with ``K`` the stiffness towards a tendon. Default 1
+        (a joint with hysteretic friction in its bearings shows no ringing).
     actuator_tau : float
         Time constant of the low-level tension loop [s]. Default 0.05.
     """
 
-    inertia: float = 1e-3
+    statics: str = "own_set"
+    inertia: float | None = None
     stiffness: float | None = None
     damping_ratio: float = 1.0
     actuator_tau: float = 0.05
 
     def __post_init__(self) -> None:
-        if self.inertia <= 0 or self.damping_ratio < 0 or self.actuator_tau <= 0:
+        if self.statics not in ("own_set", "full"):
+            raise ConfigError(f"joint dynamics' statics must be 'own_set' or 'full', got {self.statics!r}")
+        if (self.inertia is not None and self.inertia <= 0) or self.damping_ratio < 0 or self.actuator_tau <= 0:
             raise ConfigError("joint dynamics need inertia > 0, damping_ratio >= 0 and actuator_tau > 0")
         if self.stiffness is not None and self.stiffness < 0:
             raise ConfigError(f"joint stiffness must be >= 0 N m/rad, got {self.stiffness}")
 
     def stiffness_for(self, recipe: Recipe, geometry: RobotGeometry) -> float:
-        """``K`` [N m/rad] of a recipe's robot."""
+        """``K`` [N m/rad] towards a tendon: the override, or the actuation gain times the hole radius."""
         if self.stiffness is not None:
             return float(self.stiffness)
         return recipe.actuation.gain_n_per_rad * geometry.hole_radius
 
-    def damping(self, stiffness: float) -> float:
-        """``c`` [N m s/rad]."""
-        return 2.0 * self.damping_ratio * np.sqrt(stiffness * self.inertia)
+    def inertia_for(self, recipe: Recipe, geometry: RobotGeometry) -> NDArray[np.float64]:
+        """``I_k`` [kg m^2] per joint, shape (N,)."""
+        if self.inertia is not None or self.statics == "own_set":
+            return np.full(geometry.n_modules, 1e-3 if self.inertia is None else float(self.inertia))
+        return composite_inertia(geometry, recipe.body)
 
 
 def joint_torque(joint_side: NDArray, psi: NDArray, hole_radius: float) -> NDArray:
-    """Moment of each set's joint-side tensions about its joint [N m], shape (..., N, 2).
+    """First-order moment of each set's own joint-side tensions about its joint [N m], shape (..., N, 2).
 
-    ``tau_k = r sum_i T[k, k, i] (cos psi_ki, sin psi_ki)`` (the tendon Jacobian's transpose).
+    ``r sum_i T[k, k, i] (cos psi_ki, sin psi_ki)``: the straight robot's tendon Jacobian, own set
+    only; what a joint's own tendons contribute at small bends.  The plant's full moment, every
+    tendon crossing the joint, is :func:`~tendon_id.closed_loop.statics.tendon_moments`.
     """
     return hole_radius * np.stack(
         [np.sum(joint_side * np.cos(psi), axis=-1), np.sum(joint_side * np.sin(psi), axis=-1)], axis=-1
     )
+
+
+def _sector_matrices(inertia: NDArray, stiffness: NDArray, damping: NDArray, dt: float) -> tuple[NDArray, NDArray]:
+    """Exact zero-order-hold matrices of ``I x'' + c x' + K x = tau`` for each joint and 2x2 ``K``.
+
+    ``stiffness`` (N, P, 2, 2); returns ``Phi`` (N, P, 4, 4) and ``Gamma`` (N, P, 4, 2) for the state
+    ``(theta, omega)``: ``expm([[A, B], [0, 0]] dt)`` with ``A = [[0, 1], [-K/I, -c/I]]``.
+    """
+    n, p = stiffness.shape[:2]
+    phi, gamma = np.empty((n, p, 4, 4)), np.empty((n, p, 4, 2))
+    eye = np.eye(2)
+    for k in range(n):
+        for q in range(p):
+            m = np.zeros((6, 6))
+            m[:2, 2:4] = eye
+            m[2:4, :2] = -stiffness[k, q] / inertia[k]
+            m[2:4, 2:4] = -damping[k] / inertia[k] * eye
+            m[2:4, 4:6] = eye / inertia[k]
+            e = expm(m * dt)
+            phi[k, q], gamma[k, q] = e[:4, :4], e[:4, 4:6]
+    return phi, gamma
 
 
 class Plant:
@@ -99,12 +150,23 @@ class Plant:
     Parameters
     ----------
     recipe : Recipe
-        Robot, friction law and effects of the truth (its ``snake`` robot is used).
+        Robot, friction law, effects and body of the truth (its ``snake`` robot is used).
     batch : int
         Number of independent robots (one per estimator, for example).
     dynamics : JointDynamics
     dt : float
         Integration step [s]. Default 1 ms (1 kHz).
+
+    Attributes
+    ----------
+    theta, omega : ndarray, shape (B, N, 2)
+        Joint angles [rad] and rates [rad/s].
+    actuator : ndarray, shape (B, N, 3)
+        True actuator-side tensions [N].
+    chain : ndarray, shape (B, N, N, 3)
+        ``T[k, j, i]`` [N], every tendon across every joint it crosses (zero where ``k > j``).
+    joint_side : ndarray, shape (B, N, 3)
+        ``T[j, j, i]`` [N], the diagonal of ``chain``.
     """
 
     def __init__(self, recipe: Recipe, batch: int, dynamics: JointDynamics | None = None, dt: float = 1e-3):
@@ -114,18 +176,55 @@ class Plant:
         self.dt = float(dt)
         self.batch = int(batch)
         self.psi = tendon_azimuths(self.geometry)
-        k = self.dynamics.stiffness_for(recipe, self.geometry)
-        i, c = self.dynamics.inertia, self.dynamics.damping(k)
-        self.stiffness = k
-        # Exact ZOH of x' = A x + b tau, x = (theta, omega): [[Phi, Gamma], [0, 1]] = expm([[A, b], [0, 0]] dt)
-        m = np.zeros((3, 3))
-        m[:2, :2] = [[0.0, 1.0], [-k / i, -c / i]]
-        m[1, 2] = 1.0 / i
-        e = expm(m * self.dt)
-        self.phi, self.gamma = e[:2, :2], e[:2, 2]
+        self.stiffness = self.dynamics.stiffness_for(recipe, self.geometry)
+        self.inertia = self.dynamics.inertia_for(recipe, self.geometry)
+        self.gain = recipe.actuation.gain_n_per_rad
+        self.full = self.dynamics.statics == "full"
+        self.isotropic = self.dynamics.stiffness is not None or not self.full
+        damping = 2.0 * self.dynamics.damping_ratio * np.sqrt(self.stiffness * self.inertia)
+        # The elastic return's stiffness in each sector: the tendons with b > 0 (bit i of the sector's index).
+        u = np.stack([np.cos(self.psi), np.sin(self.psi)], axis=-1)  # (N, 3, 2)
+        pulls = (np.arange(8)[:, None] >> np.arange(3)[None, :]) & 1  # (8 sectors, 3 tendons)
+        if self.isotropic:
+            k_sector = np.broadcast_to(self.stiffness * np.eye(2), (self.geometry.n_modules, 1, 2, 2))
+        else:
+            r = self.geometry.hole_radius
+            k_sector = r * self.gain * np.einsum("qi,kia,kib->kqab", pulls, u, u)
+        self.phi, self.gamma = _sector_matrices(self.inertia, k_sector, damping, self.dt)
+        self._bits = np.array([1, 2, 4])
         self.a_act = np.exp(-self.dt / self.dynamics.actuator_tau)
         self.stepper = TransmissionStepper(self.geometry, recipe.friction, recipe.effects, self.dt, self.batch)
         self.reset()
+
+    def sector(self, theta: NDArray) -> NDArray[np.intp]:
+        """Index of each joint's elastic-return sector (which tendons pull), shape (B, N)."""
+        if self.isotropic:
+            return np.zeros(theta.shape[:-1], dtype=np.intp)
+        b = theta[..., 0, None] * np.cos(self.psi) + theta[..., 1, None] * np.sin(self.psi)
+        return ((b > 0) * self._bits).sum(axis=-1)
+
+    def crossing_jacobian(self, theta: NDArray) -> NDArray[np.float64]:
+        """``dl_kji/dtheta_k`` [m/rad], shape (B, N, N, 3, 2): exact under ``"full"``; own set at first order else."""
+        if self.full:
+            return crossing_jacobian(theta, self.geometry)
+        n = self.geometry.n_modules
+        jac = np.zeros(np.shape(theta)[:-2] + (n, n, 3, 2))
+        own = -self.geometry.hole_radius * np.stack([np.cos(self.psi), np.sin(self.psi)], axis=-1)
+        jac[..., np.arange(n), np.arange(n), :, :] = own
+        return jac
+
+    def static_moments(self, theta: NDArray, chain: NDArray) -> NDArray[np.float64]:
+        """The tendons' and gravity's moments about each joint [N m], shape (B, N, 2) (the elastic return apart)."""
+        tau = tendon_moments(chain, self.crossing_jacobian(theta))
+        if self.full and self.recipe.body.gravity:
+            tau = tau + gravity_moments(theta, self.geometry, self.recipe.body)
+        return tau
+
+    def elastic_moments(self, theta: NDArray) -> NDArray[np.float64]:
+        """The joints' elastic return [N m], shape (B, N, 2)."""
+        if self.isotropic:
+            return -self.stiffness * np.asarray(theta, dtype=float)
+        return elastic_return(theta, self.psi, self.gain, self.geometry.hole_radius)
 
     def reset(self, actuator: NDArray | None = None) -> None:
         """Straight robots at rest; actuator tensions ``actuator`` (B, N, 3) [N] (default: 1 N)."""
@@ -135,6 +234,7 @@ class Plant:
         self.actuator = np.ones((self.batch, n, 3)) if actuator is None else np.array(actuator, dtype=float)
         self.stepper.reset()
         self.joint_side, self.sigma = self.stepper.step(self.theta, self.actuator)
+        self.chain = self.stepper.chain
 
     def advance(self, command: NDArray, duration: float) -> None:
         """Hold the commanded actuator tensions ``command`` (B, N, 3) [N] for ``duration`` [s]."""
@@ -142,10 +242,14 @@ class Plant:
         if steps < 1 or abs(steps * self.dt - duration) > 1e-9:
             raise ConfigError(f"the controller period {duration} s must be a multiple of the plant step {self.dt} s")
         command = np.asarray(command, dtype=float)
+        joints = np.arange(self.geometry.n_modules)
         for _ in range(steps):
-            tau = joint_torque(self.joint_side, self.psi, self.geometry.hole_radius)
-            theta = self.phi[0, 0] * self.theta + self.phi[0, 1] * self.omega + self.gamma[0] * tau
-            self.omega = self.phi[1, 0] * self.theta + self.phi[1, 1] * self.omega + self.gamma[1] * tau
-            self.theta = theta
+            tau = self.static_moments(self.theta, self.chain)
+            q = self.sector(self.theta)
+            phi, gamma = self.phi[joints, q], self.gamma[joints, q]  # (B, N, 4, 4), (B, N, 4, 2)
+            x = np.concatenate([self.theta, self.omega], axis=-1)
+            x = np.einsum("bkij,bkj->bki", phi, x) + np.einsum("bkij,bkj->bki", gamma, tau)
+            self.theta, self.omega = x[..., :2], x[..., 2:]
             self.actuator = self.a_act * self.actuator + (1.0 - self.a_act) * command
             self.joint_side, self.sigma = self.stepper.step(self.theta, self.actuator)
+            self.chain = self.stepper.chain

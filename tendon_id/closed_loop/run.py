@@ -80,6 +80,8 @@ class ClosedLoopRun:
         Measured (encoder) angles [rad].
     joint_side, estimate : ndarray, shape (E, F, N, 3)
         True joint-side tensions and the estimator's [N].
+    chain, chain_estimate : ndarray, shape (E, F, N, N, 3)
+        The true chain ``T[k, j, i]`` and the estimator's [N] (zero where ``k > j``).
     command : ndarray, shape (E, F, N, 3)
         Actuator-side commands [N].
     sigma : ndarray of int8, shape (E, F, N-1, N, 3)
@@ -97,6 +99,8 @@ class ClosedLoopRun:
     command: NDArray
     sigma: NDArray
     seed: int
+    chain: NDArray | None = None
+    chain_estimate: NDArray | None = None
 
     def traces(self) -> dict:
         """What a Fig. 6 needs, as JSON lists: the stepped joints' reference and measured angles [deg]."""
@@ -165,14 +169,14 @@ def run_step_test(
             g,
             plant.psi,
             plant.geometry.hole_radius,
-            plant.stiffness,
+            plant,
             period,
             recipe.actuation.max_tension_n,
         )
         for g in gains
     ]
     for est in estimators:
-        est.reset()
+        est.reset(needs_chain=plant.full)
 
     frames = int(round((test.lead_s + 2 * test.hold_s) / period))
     t = np.arange(frames) * period
@@ -185,19 +189,22 @@ def run_step_test(
     e = len(estimators)
     angles = np.zeros((e, frames, n, 2))
     joint_side, estimate, command = (np.zeros((e, frames, n, 3)) for _ in range(3))
+    chain, chain_estimate = np.zeros((e, frames, n, n, 3)), np.zeros((e, frames, n, n, 3))
+    crossing = (np.arange(n)[:, None] <= np.arange(n)[None, :])[:, :, None]
+    diagonal = np.arange(n)
     sigma = np.zeros((e, frames, n - 1, n, 3), dtype=np.int8)
     sensors = recipe.sensors
     for f in range(frames):
         # The same noise draws for every robot (common random numbers): streams 8 and 9 per frame.
         meas_angles = sensors.read_angles(plant.theta)
         meas_act = np.stack([sensors.read_tensions(np.random.default_rng([seed, 8, f]), a) for a in plant.actuator])
-        meas_joint = np.stack(  # the oracle's load cells
-            [sensors.read_tensions(np.random.default_rng([seed, 9, f]), j) for j in plant.joint_side]
-        )
+        meas_chain = np.stack([_read_chain(sensors, np.random.default_rng([seed, 9, f]), c) for c in plant.chain])
         for b, (est, c) in enumerate(zip(estimators, ctrl)):
-            estimate[b, f] = est.step(meas_angles[b], meas_act[b], meas_joint[b])
-            command[b, f] = c.command(ref[f], meas_angles[b], meas_act[b], estimate[b, f])
+            chain_estimate[b, f] = np.where(crossing, est.step(meas_angles[b], meas_act[b], meas_chain[b]), 0.0)
+            estimate[b, f] = chain_estimate[b, f][diagonal, diagonal]
+            command[b, f] = c.command(ref[f], meas_angles[b], meas_act[b], chain_estimate[b, f])
         angles[:, f], joint_side[:, f], sigma[:, f] = meas_angles, plant.joint_side, plant.sigma
+        chain[:, f] = plant.chain
         plant.advance(command[:, f], period)
     return ClosedLoopRun(
         test=test,
@@ -211,7 +218,19 @@ def run_step_test(
         command=command,
         sigma=sigma,
         seed=int(seed),
+        chain=chain,
+        chain_estimate=chain_estimate,
     )
+
+
+def _read_chain(sensors, rng: np.random.Generator, chain: NDArray) -> NDArray:
+    """The oracle's load cells on every tendon at every joint it crosses, (N, N, 3) [N]: each set's own
+    joint first, so those readings are the same draws whether or not the rest is read."""
+    diagonal = np.arange(chain.shape[0])
+    own = sensors.read_tensions(rng, chain[diagonal, diagonal])
+    out = sensors.read_tensions(rng, chain)
+    out[diagonal, diagonal] = own
+    return out
 
 
 def loop_metrics(run: ClosedLoopRun, estimator: int, loop: int, band_deg: float = 0.5) -> dict:

@@ -13,6 +13,7 @@ from tendon_id.checks import check_choice, check_keys
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
 from tendon_id.sim.actuation import Actuation
+from tendon_id.sim.body import Body
 from tendon_id.sim.effects import Effects
 from tendon_id.sim.protocols import PAPER_FRAMES, PROTOCOL_NAMES, ProtocolSettings
 from tendon_id.sim.sensors import Sensors
@@ -61,6 +62,9 @@ class Recipe:
     actuation : Actuation
     sensors : Sensors
     protocols : mapping of str to ProtocolSettings
+    body : Body
+        Link and payload masses and the base's orientation against gravity: what only the closed
+        loop's plant reads (:doc:`/guide/closed_loop`).
     """
 
     name: str
@@ -75,6 +79,7 @@ class Recipe:
     actuation: Actuation = field(default_factory=Actuation)
     sensors: Sensors = field(default_factory=Sensors)
     protocols: Mapping[str, ProtocolSettings] = field(default_factory=dict)
+    body: Body = field(default_factory=Body)
 
     def __post_init__(self) -> None:
         if not self.sample_rate_hz > 0:
@@ -116,6 +121,8 @@ class Recipe:
             "actuation": asdict(self.actuation),
             "sensors": asdict(self.sensors),
             "protocols": {k: asdict(v) for k, v in self.protocols.items()},
+            # Only where set: the open-loop data do not read it, so recipes without it keep their cache keys.
+            **({"body": asdict(self.body)} if self.body != Body() else {}),
         }
 
     def fingerprint(self) -> str:
@@ -139,6 +146,7 @@ class Recipe:
             "actuation",
             "sensors",
             "protocols",
+            "body",
             "card",
         }
         check_keys(d, known, what="section", where=str(source))
@@ -166,6 +174,7 @@ class Recipe:
                 actuation=_build(Actuation, "actuation", d.get("actuation")),
                 sensors=_build(Sensors, "sensors", d.get("sensors")),
                 protocols=protocols,
+                body=_build(Body, "body", d.get("body")),
             )
         except ConfigError as exc:
             raise ConfigError(f"{source}: {exc}") from None

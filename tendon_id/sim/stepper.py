@@ -104,6 +104,8 @@ class TransmissionStepper:
         self.lo, self.hi = np.zeros_like(self.play), np.zeros_like(self.play)  # the play's edges [ln N]
         # set j passes guides 1..j-1: guide index g carries set indices g+1.. (docs/guide/problem.rst)
         self._on_path = (np.arange(n)[None, :] > np.arange(n - 1)[:, None]).astype(np.int8)[None, :, :, None]
+        self._crossing = (np.arange(n)[None, :] >= np.arange(n)[:, None])[None, :, :, None]  # set j crosses joint k
+        self.chain = np.zeros((self.batch, n, n, 3))  # T[k, j, i] of the last step [N]
         self.started = False
         self.slid = np.zeros((self.batch, n - 1))  # friction_drift: distance slid through each guide [m]
         self.theta_prev = None
@@ -128,6 +130,9 @@ class TransmissionStepper:
             ``T[j, j, i]`` [N].
         sigma : ndarray of int8, shape (B, N-1, N, 3)
             Slip state per guide, set and tendon (0 where the set does not pass the guide).
+
+        The whole chain ``T[k, j, i]`` of this instant, every tendon across every joint it crosses,
+        is kept in :attr:`chain`, shape (B, N, N, 3) [N], zero where ``k > j``.
         """
         n = self.geometry.n_modules
         if theta.shape != (self.batch, n, 2) or actuator.shape != (self.batch, n, 3):
@@ -146,10 +151,13 @@ class TransmissionStepper:
         if self.elastic:
             seg = self.chain_state.step(theta, actuator, phi, None if loss is None else loss)
             self.started = True
+            self.chain = np.concatenate([actuator[:, None], seg], axis=1) * self._crossing
             joint = actuator.copy()
             joint[:, 1:] = seg[:, np.arange(n - 1), np.arange(1, n)]
             return joint, (self._on_path * self.chain_state.sigma).astype(np.int8)
         log_t = np.log(actuator)
+        chain = np.zeros((self.batch, n, n, 3))
+        chain[:, 0] = actuator
         for g in range(n - 1):  # guide g + 1 feeds guide g + 2: the one sequential axis
             on = slice(g + 1, n)
             x, ph = log_t[:, on], phi[:, g, on]
@@ -166,6 +174,8 @@ class TransmissionStepper:
                 self.z[:, g, on] = z
                 y = np.log((1.0 - self.visco.kappa) * quasi + self.visco.kappa * z)
             log_t[:, on] = y
+            chain[:, g + 1, on] = np.exp(y)  # across joint g + 2, between guides g + 1 and g + 2
+        self.chain = chain
         sigma = self._on_path * (slip_state(self.play, self.lo, self.hi) if self.stick_slip else np.int8(1))
         self.started = True
         return np.exp(log_t), sigma.astype(np.int8)
