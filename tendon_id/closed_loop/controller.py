@@ -177,8 +177,12 @@ class HybridController:
         it, at the tension each will have there once it holds its own desired joint side: the
         desired ``T_d[j]`` carried back to joint ``k`` by the estimator's chain,
         ``T_d[j] T_hat[k, j] / T_hat[j, j]``.  The distal sets come first, so the recursion runs
-        from the tip to the base, one joint at a time; loading a joint with what its distal sets
-        read now instead lags one period per joint, and the loop hunts.
+        from the tip to the base, one joint at a time.  Two alternatives were tried and fail:
+        loading a joint with what its distal sets read now lags one period per joint, and the
+        loop hunts; loading it with their commands carries each set's tension-loop overshoot down
+        the chain, amplified at every joint (noise-free, ``posterior-3``, joints of 1e-3 kg m^2 and
+        first-order moments: the desired tensions of sets 1-8 reached 235-291 N within 0.3 s of
+        the step, against at most 124 N this way).
         """
         n = estimate.shape[0]
         own = estimate[np.arange(n), np.arange(n)]
