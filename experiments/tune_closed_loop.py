@@ -6,7 +6,12 @@ paper's step regimes and three seeds kept apart from the benchmark's (100-102). 
 that settle in the most loops, and among those with the smallest mean settling time (then RMS), become
 :class:`~tendon_id.closed_loop.HybridGains`' defaults; every estimator is compared with them.
 
-    python experiments/tune_closed_loop.py [--recipe snake12-paper] [--json tune.json]
+    python experiments/tune_closed_loop.py [--recipe snake12-paper] [--statics own_set|full] [--json tune.json]
+
+``--statics full`` tunes on the plant with every tendon crossing a joint pulling on it
+(:class:`~tendon_id.closed_loop.JointDynamics`).  A batch whose robots leave the friction law's
+range (a gain set that diverges) is rerun one gain set at a time, and the diverged ones count
+as unsettled in every loop of that case.
 """
 
 from __future__ import annotations
@@ -18,8 +23,9 @@ import time
 
 import numpy as np
 
-from tendon_id.closed_loop import STEP_TESTS, HybridGains, OracleInLoop, loop_metrics, run_step_test
+from tendon_id.closed_loop import STEP_TESTS, HybridGains, JointDynamics, OracleInLoop, loop_metrics, run_step_test
 from tendon_id.datasets import load_recipe
+from tendon_id.errors import ConfigError
 
 KP = (16.0, 32.0, 64.0)
 KI = (2.0, 5.0, 10.0)
@@ -30,8 +36,10 @@ SEEDS = (100, 101, 102)
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--recipe", default="snake12-paper")
+    ap.add_argument("--statics", choices=("own_set", "full"), default="own_set")
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
+    dynamics = JointDynamics(statics=args.statics)
     recipe = load_recipe(args.recipe)
     grid = [HybridGains(kp=kp, ki=ki, k_tension=kt) for kp, ki, kt in itertools.product(KP, KI, KT)]
     t0 = time.perf_counter()
@@ -39,15 +47,34 @@ def main() -> None:
     settles = np.full((len(grid), 2 * len(cases)), np.nan)
     rms = np.zeros((len(grid), 2 * len(cases)))
     for c, (test, seed) in enumerate(cases):
-        run = run_step_test(recipe, [OracleInLoop() for _ in grid], test, seed=seed, gains=grid)
-        for b in range(len(grid)):
+        try:
+            batch = run_step_test(
+                recipe, [OracleInLoop() for _ in grid], test, seed=seed, gains=grid, dynamics=dynamics
+            )
+            runs = [(batch, b) for b in range(len(grid))]
+        except ConfigError:  # some gain set diverged: the rest one at a time (same seed, same noise draws)
+            runs = []
+            for b, gains in enumerate(grid):
+                try:
+                    runs.append(
+                        (run_step_test(recipe, [OracleInLoop()], test, seed=seed, gains=[gains], dynamics=dynamics), 0)
+                    )
+                except ConfigError:
+                    runs.append((None, 0))
+        for b, (run, index) in enumerate(runs):
             for loop in (1, 2):
-                m = loop_metrics(run, b, loop)
+                m = loop_metrics(run, index, loop) if run is not None else {"settle_s": None, "rms_deg": np.inf}
                 settles[b, 2 * c + loop - 1] = np.nan if m["settle_s"] is None else m["settle_s"]
                 rms[b, 2 * c + loop - 1] = m["rms_deg"]
         print(f"{test.regime} seed {seed} done, {time.perf_counter() - t0:.0f} s", flush=True)
     unsettled = np.isnan(settles).sum(axis=1)
-    score = np.nanmean(np.where(np.isnan(settles), np.nan, settles), axis=1)
+    settled = ~np.isnan(settles)
+    score = np.divide(
+        np.where(settled, settles, 0.0).sum(axis=1),
+        settled.sum(axis=1),
+        out=np.full(len(grid), np.nan),
+        where=settled.any(axis=1),
+    )
     # Settling times are sampled at 10 Hz, so ties are common: the smaller mean RMS error breaks them.
     order = np.lexsort((rms.mean(axis=1), np.round(score, 6), unsettled))
     rows = [
@@ -56,23 +83,24 @@ def main() -> None:
             "ki": grid[b].ki,
             "k_tension": grid[b].k_tension,
             "settle_s": [None if np.isnan(v) else float(v) for v in settles[b]],
-            "rms_deg": rms[b].tolist(),
-            "mean_settle_s": float(score[b]),
-            "mean_rms_deg": float(rms[b].mean()),
+            "rms_deg": [float(v) if np.isfinite(v) else None for v in rms[b]],  # None: diverged
+            "mean_settle_s": float(score[b]) if np.isfinite(score[b]) else None,  # None: no loop settled
+            "mean_rms_deg": float(rms[b].mean()) if np.isfinite(rms[b]).all() else None,
             "unsettled": int(unsettled[b]),
         }
         for b in order
     ]
     for row in rows[:10]:
+        settle = float("nan") if row["mean_settle_s"] is None else row["mean_settle_s"]
+        rms_text = "diverged" if row["mean_rms_deg"] is None else f"{row['mean_rms_deg']:.3f} deg"
         print(
             f"kp={row['kp']:5.1f} ki={row['ki']:5.1f} kT={row['k_tension']:4.2f}  "
-            f"unsettled {row['unsettled']}  mean settle {row['mean_settle_s']:.2f} s  "
-            f"mean RMS {row['mean_rms_deg']:.3f} deg"
+            f"unsettled {row['unsettled']}  mean settle {settle:.2f} s  mean RMS {rms_text}"
         )
     print(f"{len(grid)} gain sets in {time.perf_counter() - t0:.0f} s")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"recipe": args.recipe, "rows": rows}, f, indent=1)
+            json.dump({"recipe": args.recipe, "statics": args.statics, "rows": rows}, f, indent=1)
 
 
 if __name__ == "__main__":

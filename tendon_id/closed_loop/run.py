@@ -52,6 +52,16 @@ class StepTest:
     hold_s: float = 12.0
     lead_s: float = 3.0
 
+    def __post_init__(self) -> None:
+        # A zero step would divide by a zero move time and fill the reference with NaN.
+        if not self.amplitude_deg > 0 or not self.hold_s > 0 or not self.lead_s >= 0:
+            raise ConfigError(
+                f"step test {self.regime}: amplitude_deg and hold_s must be positive and lead_s >= 0, got "
+                f"{self.amplitude_deg}, {self.hold_s} and {self.lead_s}"
+            )
+        if not self.joints:
+            raise ConfigError(f"step test {self.regime} moves no joint")
+
     def move_s(self, v_max_deg_s: float) -> float:
         """Duration of each move [s] at the peak speed ``v_max_deg_s`` [deg/s]."""
         return min_jerk_duration(self.amplitude_deg, v_max_deg_s)

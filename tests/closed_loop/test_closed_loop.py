@@ -172,3 +172,7 @@ def test_run_is_reproducible_and_checks_its_input(recipe):
         run_step_test(recipe, [OracleInLoop()], StepTest("x", (13,), 2.0), seed=0)
     with pytest.raises(ConfigError, match="estimator"):
         run_step_test(recipe, [], STEP_TESTS["posterior-3"])
+    with pytest.raises(ConfigError, match="amplitude_deg"):
+        StepTest("posterior-3", (12,), 0.0)
+    with pytest.raises(ConfigError, match="no joint"):
+        StepTest("posterior-3", (), 2.0)
