@@ -1,6 +1,7 @@
 """The simulated robot of the closed loop: joint dynamics driven through the truth transmission.
 
-Per joint ``k`` (two bending axes), a second-order joint (:doc:`/guide/closed_loop`)::
+With ``JointDynamics(statics="full")``, per joint ``k`` (two bending axes), a second-order joint
+(:doc:`/guide/closed_loop`)::
 
     I_k theta_k'' + c_k theta_k' = tau_k
     tau_k = - sum_{j >= k} sum_i T[k, j, i] dl_kji/dtheta_k  + tau_g,k + tau_e,k
@@ -19,16 +20,22 @@ Per joint ``k`` (two bending axes), a second-order joint (:doc:`/guide/closed_lo
 The low-level puller-follower controller realises a commanded actuator tension with a first
 order lag ``tau_a`` (the paper gives no figure; 50 ms is a typical tension loop).  Between
 controller updates the plant integrates at ``dt``: the elastic return is linear within each
-sector of bend directions where the same tendons pull (:func:`elastic_return`), so each joint's
+sector of bend directions where the same tendons pull, so each joint's
 linear part is discretised exactly for its current sector (zero-order hold, matrix exponential,
 precomputed for every sector), and the tendons' and gravity's moments are held over the step.
 The transmission is stepped at every ``dt`` with its stick/slip and viscoelastic state carried
 (:class:`~tendon_id.sim.stepper.TransmissionStepper`), and gives the whole chain ``T[k, j, i]``.
 
-Why 1 ms is small enough: the stiffest joint, the last, with one link's inertia, has its poles
-near ``sqrt(g r / I)``; the held moments change within a step only as fast as the 50 ms actuator
-lag and the joints move.  Measured (``tests/closed_loop``): halving the step moves the closed-loop
-angles by less than an encoder count on average and the RMS error by under 5 %.
+The default, ``statics="own_set"``, is the earlier plant, kept until a controller is tuned for
+the full one: joint ``k`` driven by its own set at first order, ``r sum_i T[k, k, i] u_ki``,
+against an isotropic stiffness ``g r``, with 1e-3 kg m^2 at every joint (:class:`JointDynamics`).
+
+Why 1 ms is small enough: each joint's linear part is discretised exactly, and the held moments
+change within a step only as fast as the 50 ms actuator lag and the joints move.  Measured on
+the default plant (``tests/closed_loop``): halving the step moves the closed-loop angles by less
+than an encoder count on average and the RMS error by under 5 %.  On the full plant, the
+oracle's loop holding the straight pose diverges at a quarter of the step as it does at 1 ms,
+so that divergence is not the integrator's (:doc:`/guide/closed_loop`).
 """
 
 from __future__ import annotations
