@@ -69,10 +69,17 @@ class ModelInLoop(InLoopEstimator):
         self.streamer = getattr(model, "streamer", None)
         if getattr(model, "uses_prior_", False):
             self.streamer = None
+        self._engine = None  # built once, on the first run that reads the diagonal alone
         self.reset()
 
     def reset(self, needs_chain: bool = True) -> None:
-        self.stream = None if needs_chain or self.streamer is None else self.streamer()
+        self.stream = None
+        if not needs_chain and self.streamer is not None:
+            if self._engine is None:
+                self._engine = self.streamer()
+            else:
+                self._engine.reset()
+            self.stream = self._engine
         self.angles: list[NDArray] = []
         self.actuator: list[NDArray] = []
 
