@@ -68,13 +68,8 @@ def main() -> None:
                 rms[b, 2 * c + loop - 1] = m["rms_deg"]
         print(f"{test.regime} seed {seed} done, {time.perf_counter() - t0:.0f} s", flush=True)
     unsettled = np.isnan(settles).sum(axis=1)
-    settled = ~np.isnan(settles)
-    score = np.divide(
-        np.where(settled, settles, 0.0).sum(axis=1),
-        settled.sum(axis=1),
-        out=np.full(len(grid), np.nan),
-        where=settled.any(axis=1),
-    )
+    # Mean over the loops that settled; a gain set that settled none sorts after every other (inf).
+    score = np.array([row[~np.isnan(row)].mean() if (~np.isnan(row)).any() else np.inf for row in settles])
     # Settling times are sampled at 10 Hz, so ties are common: the smaller mean RMS error breaks them.
     order = np.lexsort((rms.mean(axis=1), np.round(score, 6), unsettled))
     rows = [
@@ -84,18 +79,18 @@ def main() -> None:
             "k_tension": grid[b].k_tension,
             "settle_s": [None if np.isnan(v) else float(v) for v in settles[b]],
             "rms_deg": [float(v) if np.isfinite(v) else None for v in rms[b]],  # None: diverged
-            "mean_settle_s": float(score[b]) if np.isfinite(score[b]) else None,  # None: no loop settled
+            "mean_settle_s": float(score[b]) if np.isfinite(score[b]) else None,  # None: none settled
             "mean_rms_deg": float(rms[b].mean()) if np.isfinite(rms[b]).all() else None,
             "unsettled": int(unsettled[b]),
         }
         for b in order
     ]
     for row in rows[:10]:
-        settle = float("nan") if row["mean_settle_s"] is None else row["mean_settle_s"]
+        settle = "none settled" if row["mean_settle_s"] is None else f"{row['mean_settle_s']:.2f} s"
         rms_text = "diverged" if row["mean_rms_deg"] is None else f"{row['mean_rms_deg']:.3f} deg"
         print(
             f"kp={row['kp']:5.1f} ki={row['ki']:5.1f} kT={row['k_tension']:4.2f}  "
-            f"unsettled {row['unsettled']}  mean settle {settle:.2f} s  mean RMS {rms_text}"
+            f"unsettled {row['unsettled']}  mean settle {settle}  mean RMS {rms_text}"
         )
     print(f"{len(grid)} gain sets in {time.perf_counter() - t0:.0f} s")
     if args.json:

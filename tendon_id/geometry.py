@@ -36,6 +36,7 @@ __all__ = [
     "contact_gate",
     "exact_wrap",
     "joint_rotation",
+    "own_bend",
     "projected_bend",
     "projected_wrap",
     "sin_q",
@@ -166,6 +167,27 @@ def projected_bend(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
     theta = np.asarray(theta, dtype=float)
     psi = np.asarray(psi, dtype=float)
     return theta[..., :, None, None, 0] * np.cos(psi) + theta[..., :, None, None, 1] * np.sin(psi)
+
+
+def own_bend(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
+    """Each joint's bend projected on its own set's tendons, ``b_ki = theta_k . (cos psi_ki, sin psi_ki)`` [rad].
+
+    The diagonal of :func:`projected_bend` (joint ``k``, set ``k``), without forming the rest.
+
+    Parameters
+    ----------
+    theta : array_like, shape (..., N, 2)
+        Joint angles [rad].
+    psi : array_like, shape (N, 3)
+        Azimuths [rad] of the N sets.
+
+    Returns
+    -------
+    ndarray, shape (..., N, 3)
+    """
+    theta = np.asarray(theta, dtype=float)
+    psi = np.asarray(psi, dtype=float)
+    return theta[..., :, 0, None] * np.cos(psi) + theta[..., :, 1, None] * np.sin(psi)
 
 
 def backbone_wrap(theta: ArrayLike, alpha_0: float) -> NDArray[np.float64]:

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.closed_loop.statics import on_path
 from tendon_id.errors import ConfigError
 
 __all__ = ["HybridController", "HybridGains", "tension_distribution"]
@@ -116,7 +117,7 @@ class HybridController:
     robot : Plant
         The robot's statics the controller knows: its geometry, masses and elastic return
         (:meth:`~tendon_id.closed_loop.plant.Plant.elastic_moments`,
-        :meth:`~tendon_id.closed_loop.plant.Plant.static_moments`,
+        :meth:`~tendon_id.closed_loop.plant.Plant.gravity_moments`,
         :meth:`~tendon_id.closed_loop.plant.Plant.crossing_jacobian`), never its state or friction.
     period : float
         Controller period ``T_c`` [s] (0.1 at 10 Hz).
@@ -136,7 +137,7 @@ class HybridController:
         self.gains, self.psi, self.hole_radius = gains, np.asarray(psi), float(hole_radius)
         self.robot, self.period, self.max_tension_n = robot, float(period), float(max_tension_n)
         n = self.psi.shape[0]
-        self._passing = (np.arange(n)[:, None] < np.arange(n)[None, :])[:, :, None]  # sets j > k at joint k
+        self._passing = (on_path(n) & ~np.eye(n, dtype=bool))[:, :, None]  # sets j > k at joint k
         self.integral = np.zeros((self.psi.shape[0], 2))
         self.last_command: NDArray | None = None  # u(t-1) [N]
         self.last_desired: NDArray | None = None  # T_d(t-1) [N]
@@ -158,14 +159,13 @@ class HybridController:
         self.integral = np.clip(self.integral + g.ki * err * self.period, -g.integral_limit, g.integral_limit)
         hold = -self.robot.elastic_moments(ref[None])[0] + g.kp * err + self.integral
         n = estimate.shape[0]
-        own = estimate[np.arange(n), np.arange(n)]
+        own = estimate[np.arange(n), np.arange(n)]  # each set's joint side
         desired = self.distribute(hold, angles, estimate)
-        estimate = own
-        ratio = estimate / actuator  # r_hat: the estimator's transmission of each tendon
+        ratio = own / actuator  # r_hat: the estimator's transmission of each tendon
         if self.last_command is None:  # the first period: the full inversion of the estimate
             u = desired / ratio
         else:
-            u = self.last_command + (desired - self.last_desired + g.k_tension * (desired - estimate)) / ratio
+            u = self.last_command + (desired - self.last_desired + g.k_tension * (desired - own)) / ratio
         u = np.clip(u, 0.5 * g.pretension_n, self.max_tension_n)  # the clip is also the anti-windup
         self.last_command, self.last_desired = u, desired
         return u
@@ -188,7 +188,7 @@ class HybridController:
         own = estimate[np.arange(n), np.arange(n)]
         shape = np.where(self._passing, np.nan_to_num(estimate) / own[None], 0.0)  # T_hat[k, j] / T_hat[j, j]
         jac = self.robot.crossing_jacobian(angles[None])[0]  # (N, N, 3, 2)
-        load = self.robot.static_moments(angles[None], np.zeros((1, n, n, 3)))[0]  # gravity alone
+        load = self.robot.gravity_moments(angles[None])[0]
         desired = np.empty((n, 3))
         g = self.gains
         for k in range(n - 1, -1, -1):

@@ -54,7 +54,7 @@ from tendon_id.closed_loop.statics import (
     tendon_moments,
 )
 from tendon_id.errors import ConfigError
-from tendon_id.geometry import RobotGeometry, tendon_azimuths
+from tendon_id.geometry import RobotGeometry, own_bend, tendon_azimuths
 from tendon_id.sim import Recipe
 from tendon_id.sim.stepper import TransmissionStepper
 
@@ -207,8 +207,7 @@ class Plant:
         """Index of each joint's elastic-return sector (which tendons pull), shape (B, N)."""
         if self.isotropic:
             return np.zeros(theta.shape[:-1], dtype=np.intp)
-        b = theta[..., 0, None] * np.cos(self.psi) + theta[..., 1, None] * np.sin(self.psi)
-        return ((b > 0) * self._bits).sum(axis=-1)
+        return ((own_bend(theta, self.psi) > 0) * self._bits).sum(axis=-1)
 
     def crossing_jacobian(self, theta: NDArray) -> NDArray[np.float64]:
         """``dl_kji/dtheta_k`` [m/rad], shape (B, N, N, 3, 2): exact under ``"full"``; own set at first order else."""
@@ -222,10 +221,16 @@ class Plant:
 
     def static_moments(self, theta: NDArray, chain: NDArray) -> NDArray[np.float64]:
         """The tendons' and gravity's moments about each joint [N m], shape (B, N, 2) (the elastic return apart)."""
-        tau = tendon_moments(chain, self.crossing_jacobian(theta))
-        if self.full and self.recipe.body.gravity:
-            tau = tau + gravity_moments(theta, self.geometry, self.recipe.body)
-        return tau
+        if not self.full:  # each set's own joint side at first order: the earlier plant, to the bit
+            n = self.geometry.n_modules
+            return joint_torque(chain[..., np.arange(n), np.arange(n), :], self.psi, self.geometry.hole_radius)
+        return tendon_moments(chain, crossing_jacobian(theta, self.geometry)) + self.gravity_moments(theta)
+
+    def gravity_moments(self, theta: NDArray) -> NDArray[np.float64]:
+        """Gravity's and the payload's moments about each joint [N m], shape (B, N, 2); zero unless both apply."""
+        if not (self.full and self.recipe.body.gravity):
+            return np.zeros(np.shape(theta))
+        return gravity_moments(theta, self.geometry, self.recipe.body)
 
     def elastic_moments(self, theta: NDArray) -> NDArray[np.float64]:
         """The joints' elastic return [N m], shape (B, N, 2)."""
@@ -241,7 +246,11 @@ class Plant:
         self.actuator = np.ones((self.batch, n, 3)) if actuator is None else np.array(actuator, dtype=float)
         self.stepper.reset()
         self.joint_side, self.sigma = self.stepper.step(self.theta, self.actuator)
-        self.chain = self.stepper.chain
+
+    @property
+    def chain(self) -> NDArray[np.float64]:
+        """``T[k, j, i]`` [N] of every robot, shape (B, N, N, 3), zero where ``k > j``."""
+        return self.stepper.chain
 
     def advance(self, command: NDArray, duration: float) -> None:
         """Hold the commanded actuator tensions ``command`` (B, N, 3) [N] for ``duration`` [s]."""
@@ -251,7 +260,10 @@ class Plant:
         command = np.asarray(command, dtype=float)
         joints = np.arange(self.geometry.n_modules)
         for _ in range(steps):
-            tau = self.static_moments(self.theta, self.chain)
+            if self.full:
+                tau = self.static_moments(self.theta, self.chain)
+            else:  # from the joint sides the stepper returns: no chain need be formed
+                tau = joint_torque(self.joint_side, self.psi, self.geometry.hole_radius)
             q = self.sector(self.theta)
             phi, gamma = self.phi[joints, q], self.gamma[joints, q]  # (B, N, 4, 4), (B, N, 4, 2)
             x = np.concatenate([self.theta, self.omega], axis=-1)
@@ -259,4 +271,3 @@ class Plant:
             self.theta, self.omega = x[..., :2], x[..., 2:]
             self.actuator = self.a_act * self.actuator + (1.0 - self.a_act) * command
             self.joint_side, self.sigma = self.stepper.step(self.theta, self.actuator)
-            self.chain = self.stepper.chain

@@ -16,6 +16,7 @@ from tendon_id.closed_loop.controller import HybridController, HybridGains
 from tendon_id.closed_loop.estimators import InLoopEstimator
 from tendon_id.closed_loop.metrics import StepMetrics, rms_error, step_metrics
 from tendon_id.closed_loop.plant import JointDynamics, Plant
+from tendon_id.closed_loop.statics import on_path
 from tendon_id.errors import ConfigError
 from tendon_id.sim import Recipe
 from tendon_id.sim.motion import min_jerk_at, min_jerk_duration
@@ -91,7 +92,8 @@ class ClosedLoopRun:
     joint_side, estimate : ndarray, shape (E, F, N, 3)
         True joint-side tensions and the estimator's [N].
     chain, chain_estimate : ndarray, shape (E, F, N, N, 3)
-        The true chain ``T[k, j, i]`` and the estimator's [N] (zero where ``k > j``).
+        The true chain ``T[k, j, i]`` and the estimator's [N] (zero where ``k > j``; NaN where the
+        estimator gives no estimate, as a streaming engine gives only each set's own joint).
     command : ndarray, shape (E, F, N, 3)
         Actuator-side commands [N].
     sigma : ndarray of int8, shape (E, F, N-1, N, 3)
@@ -200,7 +202,7 @@ def run_step_test(
     angles = np.zeros((e, frames, n, 2))
     joint_side, estimate, command = (np.zeros((e, frames, n, 3)) for _ in range(3))
     chain, chain_estimate = np.zeros((e, frames, n, n, 3)), np.zeros((e, frames, n, n, 3))
-    crossing = (np.arange(n)[:, None] <= np.arange(n)[None, :])[:, :, None]
+    crossing = on_path(n)[:, :, None]
     diagonal = np.arange(n)
     sigma = np.zeros((e, frames, n - 1, n, 3), dtype=np.int8)
     sensors = recipe.sensors

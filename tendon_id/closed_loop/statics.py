@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.geometry import RobotGeometry, joint_rotation, tendon_azimuths
+from tendon_id.geometry import RobotGeometry, joint_rotation, own_bend, tendon_azimuths
 from tendon_id.sim.body import Body
 
 __all__ = [
@@ -186,12 +186,9 @@ def elastic_return(theta: NDArray, psi: NDArray, gain_n_per_rad: float, hole_rad
     that between two.  It is the gradient of :func:`elastic_energy`, so it is conservative.
     """
     u = np.stack([np.cos(psi), np.sin(psi)], axis=-1)  # (N, 3, 2)
-    b = np.einsum("...ka,kia->...ki", np.asarray(theta, dtype=float), u)
-    return -hole_radius * gain_n_per_rad * np.einsum("...ki,kia->...ka", np.maximum(b, 0.0), u)
+    return -hole_radius * gain_n_per_rad * np.einsum("...ki,kia->...ka", np.maximum(own_bend(theta, psi), 0.0), u)
 
 
 def elastic_energy(theta: NDArray, psi: NDArray, gain_n_per_rad: float, hole_radius: float) -> NDArray[np.float64]:
     """Energy [J] stored by :func:`elastic_return`, ``(g r / 2) sum_k sum_i [b_ki]_+^2``, shape (...)."""
-    u = np.stack([np.cos(psi), np.sin(psi)], axis=-1)
-    b = np.einsum("...ka,kia->...ki", np.asarray(theta, dtype=float), u)
-    return 0.5 * hole_radius * gain_n_per_rad * np.sum(np.maximum(b, 0.0) ** 2, axis=(-2, -1))
+    return 0.5 * hole_radius * gain_n_per_rad * np.sum(np.maximum(own_bend(theta, psi), 0.0) ** 2, axis=(-2, -1))

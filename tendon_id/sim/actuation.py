@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.errors import ConfigError
-from tendon_id.geometry import RobotGeometry, tendon_azimuths
+from tendon_id.geometry import RobotGeometry, own_bend, tendon_azimuths
 from tendon_id.sim.motion import smooth_noise
 
 
@@ -67,7 +67,7 @@ class Actuation:
             Sample period [s].
         """
         psi = tendon_azimuths(geometry)  # (N, 3)
-        own_bend = theta[:, :, 0, None] * np.cos(psi) + theta[:, :, 1, None] * np.sin(psi)  # b_j(psi_ji)
+        bend = own_bend(theta, psi)  # b_j(psi_ji)
         slow = smooth_noise(rng, theta.shape[0], psi.shape, self.variation_period_s, dt)
-        command = pretension * (1.0 + self.variation * slow) + self.gain_n_per_rad * np.maximum(own_bend, 0.0)
+        command = pretension * (1.0 + self.variation * slow) + self.gain_n_per_rad * np.maximum(bend, 0.0)
         return np.minimum(command, self.max_tension_n)

@@ -105,7 +105,10 @@ class TransmissionStepper:
         # set j passes guides 1..j-1: guide index g carries set indices g+1.. (docs/guide/problem.rst)
         self._on_path = (np.arange(n)[None, :] > np.arange(n - 1)[:, None]).astype(np.int8)[None, :, :, None]
         self._crossing = (np.arange(n)[None, :] >= np.arange(n)[:, None])[None, :, :, None]  # set j crosses joint k
-        self.chain = np.zeros((self.batch, n, n, 3))  # T[k, j, i] of the last step [N]
+        # T[k, j, i] of the last step: the elastic chain's tensions, or the play chain's logs (-inf off the
+        # path) turned into tensions only when read, since the earlier own-set plant never reads them.
+        self._chain = np.zeros((self.batch, n, n, 3))
+        self._log_chain = np.full((self.batch, n, n, 3), -np.inf)
         self.started = False
         self.slid = np.zeros((self.batch, n - 1))  # friction_drift: distance slid through each guide [m]
         self.theta_prev = None
@@ -113,6 +116,14 @@ class TransmissionStepper:
             from tendon_id.sim.elastic import ElasticState  # it imports the compiled pass
 
             self.chain_state = ElasticState(self.geometry, self.effects, self.dt, self.batch)
+
+    @property
+    def chain(self) -> NDArray:
+        """``T[k, j, i]`` [N] of the last step, shape (B, N, N, 3), zero where ``k > j``."""
+        if self._chain is None:
+            self._chain = np.exp(self._log_chain)
+            self._chain[:, 0] = self._actuator  # exactly, not exp(log(.))
+        return self._chain
 
     def step(self, theta: NDArray, actuator: NDArray) -> tuple[NDArray, NDArray]:
         """Advance one instant.
@@ -151,13 +162,13 @@ class TransmissionStepper:
         if self.elastic:
             seg = self.chain_state.step(theta, actuator, phi, None if loss is None else loss)
             self.started = True
-            self.chain = np.concatenate([actuator[:, None], seg], axis=1) * self._crossing
+            self._chain = np.concatenate([actuator[:, None], seg], axis=1) * self._crossing
             joint = actuator.copy()
             joint[:, 1:] = seg[:, np.arange(n - 1), np.arange(1, n)]
             return joint, (self._on_path * self.chain_state.sigma).astype(np.int8)
         log_t = np.log(actuator)
-        chain = np.zeros((self.batch, n, n, 3))
-        chain[:, 0] = actuator
+        self._log_chain[:, 0] = log_t
+        self._chain, self._actuator = None, actuator
         for g in range(n - 1):  # guide g + 1 feeds guide g + 2: the one sequential axis
             on = slice(g + 1, n)
             x, ph = log_t[:, on], phi[:, g, on]
@@ -174,8 +185,7 @@ class TransmissionStepper:
                 self.z[:, g, on] = z
                 y = np.log((1.0 - self.visco.kappa) * quasi + self.visco.kappa * z)
             log_t[:, on] = y
-            chain[:, g + 1, on] = np.exp(y)  # across joint g + 2, between guides g + 1 and g + 2
-        self.chain = chain
+            self._log_chain[:, g + 1, on] = y  # across joint g + 2, between guides g + 1 and g + 2
         sigma = self._on_path * (slip_state(self.play, self.lo, self.hi) if self.stick_slip else np.int8(1))
         self.started = True
         return np.exp(log_t), sigma.astype(np.int8)

@@ -20,7 +20,7 @@ from tendon_id.closed_loop.statics import (
 )
 from tendon_id.datasets import load_recipe
 from tendon_id.errors import ConfigError
-from tendon_id.geometry import RobotGeometry, tendon_azimuths
+from tendon_id.geometry import RobotGeometry, crossing_length, joint_rotation, tendon_azimuths
 from tendon_id.sim import FrictionLaw
 from tendon_id.sim.body import STANDARD_GRAVITY, Body
 
@@ -169,8 +169,6 @@ def _energy(plant, chain_tension):
     gb = plant.recipe.body.gravity_in_base()
     gravity = -(plant.recipe.body.link_mass_kg * np.sum(centre @ gb, axis=-1) + plant.recipe.body.payload_kg * tip @ gb)
     # The tendons: the crossing lengths change, the rest of each tendon does not (constant tension: T l).
-    from tendon_id.geometry import crossing_length, joint_rotation
-
     R = joint_rotation(plant.theta)[..., :, None, None, :, :]
     lengths = crossing_length(R, g.hole_radius * np.cos(psi), g.hole_radius * np.sin(psi), h)
     tendons = np.sum(chain_tension[:, None] * lengths * on_path(g.n_modules)[:, :, None], axis=(1, 2, 3))
@@ -186,7 +184,6 @@ def _energy_drift(dt):
     plant.reset(tension)
     plant.theta = np.random.default_rng(1).uniform(-0.1, 0.1, (1, 4, 2))
     plant.joint_side, plant.sigma = plant.stepper.step(plant.theta, plant.actuator)
-    plant.chain = plant.stepper.chain
     start = _energy(plant, tension)[0]
     swing = 0.0
     for _ in range(10):
