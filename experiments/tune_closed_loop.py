@@ -7,6 +7,7 @@ that settle in the most loops, and among those with the smallest mean settling t
 :class:`~tendon_id.closed_loop.HybridGains`' defaults; every estimator is compared with them.
 
     python experiments/tune_closed_loop.py [--recipe snake12-paper] [--statics own_set|full] [--json tune.json]
+        [--kp 16 32 64] [--ki 2 5 10] [--kt 0.5 0.7 1] [--kd 0] [--smoothing 1] [--pretension 80]
 
 ``--statics full`` tunes on the plant with every tendon crossing a joint pulling on it
 (:class:`~tendon_id.closed_loop.JointDynamics`).  A batch whose robots leave the friction law's
@@ -38,10 +39,21 @@ def main() -> None:
     ap.add_argument("--recipe", default="snake12-paper")
     ap.add_argument("--statics", choices=("own_set", "full"), default="own_set")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--kp", type=float, nargs="+", default=KP, help="proportional gains [N m/rad]")
+    ap.add_argument("--ki", type=float, nargs="+", default=KI, help="integral gains [N m/(rad s)]")
+    ap.add_argument("--kt", type=float, nargs="+", default=KT, help="tension-loop fractions k_T [-]")
+    ap.add_argument("--kd", type=float, nargs="+", default=(0.0,), help="rate gains [N m s/rad]")
+    ap.add_argument("--smoothing", type=float, nargs="+", default=(1.0,), help="chain low-pass fractions [-]")
+    ap.add_argument("--pretension", type=float, nargs="+", default=(80.0,), help="pretensions P [N]")
     args = ap.parse_args()
     dynamics = JointDynamics(statics=args.statics)
     recipe = load_recipe(args.recipe)
-    grid = [HybridGains(kp=kp, ki=ki, k_tension=kt) for kp, ki, kt in itertools.product(KP, KI, KT)]
+    grid = [
+        HybridGains(kp=kp, ki=ki, k_tension=kt, kd=kd, chain_smoothing=sm, pretension_n=p)
+        for kp, ki, kt, kd, sm, p in itertools.product(
+            args.kp, args.ki, args.kt, args.kd, args.smoothing, args.pretension
+        )
+    ]
     t0 = time.perf_counter()
     cases = [(test, seed) for test in STEP_TESTS.values() for seed in SEEDS]
     settles = np.full((len(grid), 2 * len(cases)), np.nan)
@@ -77,6 +89,9 @@ def main() -> None:
             "kp": grid[b].kp,
             "ki": grid[b].ki,
             "k_tension": grid[b].k_tension,
+            "kd": grid[b].kd,
+            "chain_smoothing": grid[b].chain_smoothing,
+            "pretension_n": grid[b].pretension_n,
             "settle_s": [None if np.isnan(v) else float(v) for v in settles[b]],
             "rms_deg": [float(v) if np.isfinite(v) else None for v in rms[b]],  # None: diverged
             "mean_settle_s": float(score[b]) if np.isfinite(score[b]) else None,  # None: none settled
@@ -89,7 +104,8 @@ def main() -> None:
         settle = "none settled" if row["mean_settle_s"] is None else f"{row['mean_settle_s']:.2f} s"
         rms_text = "diverged" if row["mean_rms_deg"] is None else f"{row['mean_rms_deg']:.3f} deg"
         print(
-            f"kp={row['kp']:5.1f} ki={row['ki']:5.1f} kT={row['k_tension']:4.2f}  "
+            f"kp={row['kp']:5.1f} ki={row['ki']:5.1f} kT={row['k_tension']:4.2f} kd={row['kd']:4.2f} "
+            f"smooth={row['chain_smoothing']:4.2f} P={row['pretension_n']:3.0f}  "
             f"unsettled {row['unsettled']}  mean settle {settle}  mean RMS {rms_text}"
         )
     print(f"{len(grid)} gain sets in {time.perf_counter() - t0:.0f} s")

@@ -20,6 +20,7 @@ from tendon_id.benchmarks.splits import paper_split
 from tendon_id.benchmarks.tables import model_factory
 from tendon_id.checks import check_choices, check_count
 from tendon_id.closed_loop import ORACLE, STEP_TESTS, in_loop, joint_torque, loop_metrics, run_step_test
+from tendon_id.closed_loop.statics import crossing_jacobian, on_path, tendon_moments
 from tendon_id.datasets import load_recipe
 from tendon_id.geometry import tendon_azimuths
 from tendon_id.progress import progress_bar
@@ -55,7 +56,14 @@ def _diagnostics(run, b: int, loop: int, recipe) -> dict:
     on = np.arange(sig.shape[1])[:, None] < idx[None, :]  # guides each stepped set passes
     states = sig[:, on]  # (F, passages, 3)
     move = run.t[win] - run.t[win][0] < run.test.move_s(recipe.v_max_deg_s) + 0.5  # the move, then hold
+    # The intermediate joints: every set's tension at each joint it passes through on its way to its
+    # own (k < j), the estimates terminal-only supervision never sees and the controller feeds forward.
+    passing = on_path(psi.shape[0]) & ~np.eye(psi.shape[0], dtype=bool)
+    chain_err = np.where(passing[:, :, None], np.nan_to_num(run.chain_estimate[b][win]) - run.chain[b][win], 0.0)
+    load_err = tendon_moments(chain_err, crossing_jacobian(run.angles[b][win], recipe.robot))  # (F, N, 2)
     return {
+        "intermediate_rmse_n": float(np.sqrt(np.mean(chain_err[:, passing] ** 2))),
+        "load_error_nm": float(np.sqrt(np.mean(np.sum(load_err**2, axis=-1)))),
         "estimate_rmse_n": float(np.sqrt(np.mean(err**2))),
         "estimate_bias_n": float(np.mean(err)),
         "torque_error_nm": float(np.sqrt(np.mean(np.sum(torque_err**2, axis=-1)))),
@@ -191,7 +199,7 @@ def format_table3(result: dict) -> str:
         f"table3 ({result['preset']} preset, {result['recipe']}, {result['repeats']} seeds, "
         f"{result['seconds']:.0f} s): rise / settle on ±0.5° [s], RMS [°]",
         f"{'regime':12s} {'estimator':18s} loop  {'rise':>10s} {'settle':>10s} {'rms':>10s}   paper (rise settle rms)"
-        "   est. err [N]  torque err [N m]  stick",
+        "   est. err [N]  torque err [N m]  interm. err [N]  load err [N m]  stick",
     ]
     for r in result["rows"]:
         p = r["paper"]
@@ -200,6 +208,7 @@ def format_table3(result: dict) -> str:
             f"{r['regime']:12s} {r['estimator']:18s} {r['loop']:4d}  {_fmt(r['rise_s'], r['rise_s_sd'])} "
             f"{_fmt(r['settle_s'], r['settle_s_sd'])} {_fmt(r['rms_deg'], r['rms_deg_sd'])}   {paper:22s}"
             f"   {r['why']['estimate_rmse_n']:8.1f}  {r['why']['torque_error_nm']:12.3f}  "
+            f"{r['why']['intermediate_rmse_n']:15.1f}  {r['why']['load_error_nm']:14.3f}  "
             f"{r['why']['stick_fraction']:.2f}"
         )
     for g in result.get("guards", []):

@@ -52,12 +52,14 @@ __all__ = ["HybridController", "HybridGains", "tension_distribution"]
 class HybridGains:
     """Gains of :class:`HybridController`, fixed once for the oracle estimator.
 
-    The defaults were tuned with ``experiments/tune_closed_loop.py``: a grid over ``k_p``
-    (16, 32, 64), ``k_i`` (2, 5, 10) and ``k_T`` (0.5, 0.7, 1) with the oracle (true joint-side
-    tensions) in the loop, on both step regimes and seeds 100-102 (kept apart from the
-    benchmark's), taking the gains that settle in every loop with the smallest mean settling
-    time, ties broken by RMS error.  An earlier grid (``k_p`` 8-32, ``k_i`` 5-20, ``k_T``
-    0.4-1) led there; ``k_p = 64`` fails to settle.  Every estimator is compared with these gains.
+    The defaults were tuned with ``experiments/tune_closed_loop.py`` on the plant with the robot's
+    true statics (``JointDynamics(statics="full")``, the default), with the oracle (true
+    joint-side tensions) in the loop, on both step regimes and seeds 100-102 (kept apart from
+    the benchmark's), taking the gains that settle in every loop with the smallest mean settling
+    time, ties broken by RMS error.  Grids at the 80 N pretension: ``k_p`` 4-16, ``k_i`` 2-10,
+    ``k_T`` 0.3-0.7, with and without the chain low-pass (:doc:`/guide/closed_loop`).  The
+    earlier plant's gains (``k_p`` 32, ``k_i`` 5, ``k_T`` 0.7, no low-pass) diverge on it.
+    Every estimator is compared with these gains.
 
     Parameters
     ----------
@@ -72,17 +74,29 @@ class HybridGains:
         minimum of 62 N and a 5th percentile of 77 N). Default 80.
     integral_limit : float
         Anti-windup bound on the integral term [N m]. Default 2.
+    kd : float
+        Rate gain on the error's finite difference over one period [N m s/rad]. Default 0.
+    chain_smoothing : float
+        Fraction of each period's new chain estimate taken into the one that loads the joints
+        with the distal sets' passing moments, in (0, 1]: a first-order low-pass with time constant
+        ``-T_c / ln(1 - chain_smoothing)``, 0.28 s at the default 0.3.  The feedforward sums the
+        noisy cells of up to 33 tendons at joint 1, each read twice in ``T_hat[k, j] / T_hat[j, j]``;
+        without the filter the same gains settle more slowly (:doc:`/guide/closed_loop`).
     """
 
-    kp: float = 32.0
+    kp: float = 8.0
     ki: float = 5.0
-    k_tension: float = 0.7
+    k_tension: float = 0.5
     pretension_n: float = 80.0
     integral_limit: float = 2.0
+    kd: float = 0.0
+    chain_smoothing: float = 0.3
 
     def __post_init__(self) -> None:
-        if min(self.kp, self.ki) < 0 or not 0 < self.k_tension <= 1:
-            raise ConfigError("controller gains need kp >= 0, ki >= 0 and 0 < k_tension <= 1")
+        if min(self.kp, self.ki, self.kd) < 0 or not 0 < self.k_tension <= 1:
+            raise ConfigError("controller gains need kp >= 0, ki >= 0, kd >= 0 and 0 < k_tension <= 1")
+        if not 0 < self.chain_smoothing <= 1:
+            raise ConfigError(f"chain_smoothing must be in (0, 1], got {self.chain_smoothing}")
         if self.pretension_n <= 0 or self.integral_limit <= 0:
             raise ConfigError("the controller needs pretension_n > 0 N and integral_limit > 0 N m")
 
@@ -139,6 +153,8 @@ class HybridController:
         n = self.psi.shape[0]
         self._passing = (on_path(n) & ~np.eye(n, dtype=bool))[:, :, None]  # sets j > k at joint k
         self.integral = np.zeros((self.psi.shape[0], 2))
+        self.last_error: NDArray | None = None  # e(t-1) [rad]
+        self.chain: NDArray | None = None  # the low-passed chain estimate [N]
         self.last_command: NDArray | None = None  # u(t-1) [N]
         self.last_desired: NDArray | None = None  # T_d(t-1) [N]
 
@@ -157,10 +173,17 @@ class HybridController:
         g = self.gains
         err = ref - angles
         self.integral = np.clip(self.integral + g.ki * err * self.period, -g.integral_limit, g.integral_limit)
-        hold = -self.robot.elastic_moments(ref[None])[0] + g.kp * err + self.integral
+        rate = np.zeros_like(err) if self.last_error is None else (err - self.last_error) / self.period
+        self.last_error = err
+        hold = -self.robot.elastic_moments(ref[None])[0] + g.kp * err + g.kd * rate + self.integral
         n = estimate.shape[0]
         own = estimate[np.arange(n), np.arange(n)]  # each set's joint side
-        desired = self.distribute(hold, angles, estimate)
+        chain = np.nan_to_num(estimate)
+        if self.chain is None or g.chain_smoothing == 1:
+            self.chain = chain
+        else:
+            self.chain = self.chain + g.chain_smoothing * (chain - self.chain)
+        desired = self.distribute(hold, angles, self.chain)
         ratio = own / actuator  # r_hat: the estimator's transmission of each tendon
         if self.last_command is None:  # the first period: the full inversion of the estimate
             u = desired / ratio

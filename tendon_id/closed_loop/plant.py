@@ -1,6 +1,6 @@
 """The simulated robot of the closed loop: joint dynamics driven through the truth transmission.
 
-With ``JointDynamics(statics="full")``, per joint ``k`` (two bending axes), a second-order joint
+With ``JointDynamics(statics="full")``, the default, per joint ``k`` (two bending axes), a second-order joint
 (:doc:`/guide/closed_loop`)::
 
     I_k theta_k'' + c_k theta_k' = tau_k
@@ -11,9 +11,12 @@ With ``JointDynamics(statics="full")``, per joint ``k`` (two bending axes), a se
   :func:`~tendon_id.closed_loop.statics.tendon_moments`, exact in the pose);
 * gravity and a payload, where the recipe's :class:`~tendon_id.sim.body.Body` switches them on
   (:func:`~tendon_id.closed_loop.statics.gravity_moments`);
-* the joint's elastic return ``tau_e``, the one the simulator's actuation assumes holds a bend
-  (:func:`~tendon_id.closed_loop.statics.elastic_return`): stiffness ``g r`` towards a tendon,
-  half that between two;
+* the joint's elastic return ``tau_e``: an isotropic backbone ``-K theta_k`` with ``K = g r``,
+  the stiffness the simulator's actuation assumes towards a tendon (``elastic_return="backbone"``,
+  the default); or the return that actuation implies in every direction
+  (``"sectors"``, :func:`~tendon_id.closed_loop.statics.elastic_return`), ``g r`` towards a
+  tendon and half that between two, but with no stiffness across the bend within 30 deg of a
+  tendon, where one tendon alone pulls (why that is not the default: :doc:`/guide/closed_loop`);
 * ``I_k`` the composite inertia of the chain distal to the joint
   (:func:`~tendon_id.closed_loop.statics.composite_inertia`) and ``c_k = 2 zeta sqrt(g r I_k)``.
 
@@ -26,16 +29,14 @@ precomputed for every sector), and the tendons' and gravity's moments are held o
 The transmission is stepped at every ``dt`` with its stick/slip and viscoelastic state carried
 (:class:`~tendon_id.sim.stepper.TransmissionStepper`), and gives the whole chain ``T[k, j, i]``.
 
-The default, ``statics="own_set"``, is the earlier plant, kept until a controller is tuned for
-the full one: joint ``k`` driven by its own set at first order, ``r sum_i T[k, k, i] u_ki``,
-against an isotropic stiffness ``g r``, with 1e-3 kg m^2 at every joint (:class:`JointDynamics`).
+``statics="own_set"`` is the earlier plant, kept for comparison: joint ``k`` driven by its own
+set at first order, ``r sum_i T[k, k, i] u_ki``, against an isotropic stiffness ``g r``, with
+1e-3 kg m^2 at every joint (:class:`JointDynamics`).
 
 Why 1 ms is small enough: each joint's linear part is discretised exactly, and the held moments
 change within a step only as fast as the 50 ms actuator lag and the joints move.  Measured on
-the default plant (``tests/closed_loop``): halving the step moves the closed-loop angles by less
-than an encoder count on average and the RMS error by under 5 %.  On the full plant, the
-oracle's loop holding the straight pose diverges at a quarter of the step as it does at 1 ms,
-so that divergence is not the integrator's (:doc:`/guide/closed_loop`).
+both plants (``tests/closed_loop``): halving the step moves the closed-loop angles by less
+than an encoder count on average and the RMS error by under 5 %.
 """
 
 from __future__ import annotations
@@ -70,11 +71,10 @@ class JointDynamics:
     statics : {"own_set", "full"}
         ``"full"``: every tendon crossing a joint pulls on it through the exact tendon Jacobian,
         gravity and the payload act where the body switches them on, each joint carries its
-        composite inertia, and the elastic return follows the tendon arrangement (the module's
-        equations).  ``"own_set"`` (default, the earlier plant): joint ``k`` is driven by its own
-        set at first order, ``r sum_i T[k, k, i] u_ki``, with an isotropic stiffness ``g r`` and
-        1e-3 kg m^2 at every joint.  The default moves to ``"full"`` once the controller's gains
-        are tuned for it (issue 40).
+        composite inertia, and the elastic return is ``elastic_return`` (the module's equations);
+        the default.  ``"own_set"`` (the earlier plant): joint ``k`` is driven by its own set at
+        first order, ``r sum_i T[k, k, i] u_ki``, with an isotropic stiffness ``g r`` and 1e-3
+        kg m^2 at every joint.
     inertia : float, optional
         ``I`` [kg m^2] of every joint. Default (None): each joint's composite inertia, from the
         recipe's :class:`~tendon_id.sim.body.Body` (1.1e-1 at the base to 6.6e-5 at the tip for
@@ -82,8 +82,13 @@ class JointDynamics:
     stiffness : float, optional
         An isotropic joint stiffness ``K`` [N m/rad] in place of the elastic return the actuation
         assumes (:func:`~tendon_id.closed_loop.statics.elastic_return`), for tests and what-ifs.
-        Default (None): that elastic return, ``g r`` towards a tendon and half that between two,
-        under ``"full"``; ``g r`` in every direction under ``"own_set"``.
+        Default (None): ``g r``, the actuation's gain times the hole radius (in every direction,
+        except under ``elastic_return="sectors"``).
+    elastic_return : {"backbone", "sectors"}
+        Under ``"full"``: ``"backbone"`` (default), an isotropic ``K``, the joint's elastic
+        backbone, with ``K = g r`` unless ``stiffness`` is given; ``"sectors"``, the return the
+        open-loop actuation implies (:func:`~tendon_id.closed_loop.statics.elastic_return`), whose
+        stiffness is singular within 30 deg of each tendon (:doc:`/guide/closed_loop`).
     damping_ratio : float
         ``zeta`` [-]; ``c = 2 zeta sqrt(K I)`` with ``K`` the stiffness towards a tendon. Default 1
         (a joint with hysteretic friction in its bearings shows no ringing).
@@ -91,15 +96,20 @@ class JointDynamics:
         Time constant of the low-level tension loop [s]. Default 0.05.
     """
 
-    statics: str = "own_set"
+    statics: str = "full"
     inertia: float | None = None
     stiffness: float | None = None
+    elastic_return: str = "backbone"
     damping_ratio: float = 1.0
     actuator_tau: float = 0.05
 
     def __post_init__(self) -> None:
         if self.statics not in ("own_set", "full"):
             raise ConfigError(f"joint dynamics' statics must be 'own_set' or 'full', got {self.statics!r}")
+        if self.elastic_return not in ("backbone", "sectors"):
+            raise ConfigError(
+                f"joint dynamics' elastic_return must be 'backbone' or 'sectors', got {self.elastic_return!r}"
+            )
         if (self.inertia is not None and self.inertia <= 0) or self.damping_ratio < 0 or self.actuator_tau <= 0:
             raise ConfigError("joint dynamics need inertia > 0, damping_ratio >= 0 and actuator_tau > 0")
         if self.stiffness is not None and self.stiffness < 0:
@@ -187,7 +197,8 @@ class Plant:
         self.inertia = self.dynamics.inertia_for(recipe, self.geometry)
         self.gain = recipe.actuation.gain_n_per_rad
         self.full = self.dynamics.statics == "full"
-        self.isotropic = self.dynamics.stiffness is not None or not self.full
+        sectors = self.full and self.dynamics.elastic_return == "sectors"
+        self.isotropic = self.dynamics.stiffness is not None or not sectors
         damping = 2.0 * self.dynamics.damping_ratio * np.sqrt(self.stiffness * self.inertia)
         # The elastic return's stiffness in each sector: the tendons with b > 0 (bit i of the sector's index).
         u = np.stack([np.cos(self.psi), np.sin(self.psi)], axis=-1)  # (N, 3, 2)

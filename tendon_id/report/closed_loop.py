@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tendon_id.report.closed_loop_chain import CHAIN_HEADER, chain_figure, chain_rows
 from tendon_id.report.closed_loop_lead import TERMS, lead_sentences
 from tendon_id.report.html import HtmlPage, pyplot
 from tendon_id.zoo.guard import guard_fired
@@ -130,6 +131,21 @@ def write_table3_page(
         rows,
     )
     page.paragraph(TERMS)
+    fig = chain_figure(result["rows"], COLOURS)
+    if fig is not None:
+        page.heading("What intermediate accuracy buys")
+        page.figure(
+            fig,
+            "Each estimator's settling time (left) and RMS tracking error (right) against the RMSE of its "
+            "intermediate estimates, every set's tension at the joints it passes through (k < j), in the same "
+            "runs; circles loop 1, squares loop 2; filled and open markers the two regimes.",
+        )
+        page.table(CHAIN_HEADER, chain_rows(result["rows"]))
+        page.paragraph(
+            "The pass-through load error is the RMS, over joints and samples, of the moment error those "
+            "intermediate estimates imply about every joint: what the controller's feedforward gets wrong.",
+            cls="note",
+        )
     page.paragraph(
         "The last four columns say why: the estimator's joint-side error at the stepped joints during the loop "
         "(against the simulator's truth), the RMS error of the joint torque that estimate implies (what the "

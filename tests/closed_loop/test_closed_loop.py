@@ -27,6 +27,9 @@ from tendon_id.geometry import tendon_azimuths
 from tendon_id.sim import FrictionLaw, simulate, transmit
 from tendon_id.sim.stepper import TransmissionStepper
 
+#: The earlier plant, each joint driven by its own set at first order: what the tests of its physics pin.
+OWN_SET = JointDynamics(statics="own_set")
+
 
 @pytest.fixture(scope="module")
 def recipe():
@@ -61,7 +64,8 @@ def _symmetric(recipe):
 
 
 def test_a_balanced_joint_without_stiffness_holds_still(recipe):
-    plant = Plant(_symmetric(recipe), batch=1, dynamics=JointDynamics(stiffness=0.0, damping_ratio=0.0))
+    dynamics = JointDynamics(statics="own_set", stiffness=0.0, damping_ratio=0.0)
+    plant = Plant(_symmetric(recipe), batch=1, dynamics=dynamics)
     plant.reset(np.full((1, 12, 3), 120.0))
     plant.advance(np.full((1, 12, 3), 120.0), 2.0)
     assert np.abs(plant.theta).max() < 1e-9 and np.abs(plant.omega).max() < 1e-9  # rounding of sum(cos) only
@@ -75,7 +79,7 @@ def test_a_balanced_joint_without_stiffness_holds_still(recipe):
 def test_a_tension_differential_bends_its_joint_to_the_static_equilibrium(recipe):
     """Joint 1 (no guide): one tendon pulled by dT holds tau = r dT (cos psi, sin psi) = K theta."""
     rec = _symmetric(recipe)
-    plant = Plant(rec, batch=1)
+    plant = Plant(rec, batch=1, dynamics=OWN_SET)
     cmd = np.full((1, 12, 3), 120.0)
     cmd[0, 0, 0] += 30.0
     plant.reset(cmd)
@@ -136,8 +140,10 @@ def test_rms_error_by_hand():
     assert rms_error(np.array([1.0, -1.0, 3.0, 1.0]), np.zeros(4)) == pytest.approx(np.sqrt(3.0))
 
 
-def test_the_oracle_loop_tracks_a_step_within_the_band(recipe):
-    test = StepTest("posterior-3", (10, 11, 12), 5.0, hold_s=6.0, lead_s=2.0)
+def test_the_oracle_settles_every_loop(recipe):
+    """The default plant (the robot's true statics) and gains, posterior-3 at full length on the
+    benchmark's first seed (posterior-6: ``test_table3``): every stepped joint ends in the band."""
+    test = STEP_TESTS["posterior-3"]
     run = run_step_test(recipe, [OracleInLoop()], test, seed=0)
     for loop in (1, 2):
         m = loop_metrics(run, 0, loop)
@@ -145,6 +151,12 @@ def test_the_oracle_loop_tracks_a_step_within_the_band(recipe):
         assert m["rise_s"] is not None and m["rms_deg"] < 1.0
     end = np.rad2deg(run.angles[0, run.loop_window(1)][-1, 9:12] @ run.direction)
     assert np.all(np.abs(end - 5.0) < 0.5)
+    # The held joints swing while the stepped sets' pull passes through them (up to 5 deg on this seed,
+    # :doc:`/guide/closed_loop`), and the feedforward of that load brings them back within the band.
+    for loop in (1, 2):
+        last_second = run.loop_window(loop) & (run.t >= test.lead_s + loop * test.hold_s - 1.0)
+        held = np.rad2deg(np.linalg.norm(run.angles[0][last_second][:, :9], axis=-1))
+        assert held.max() < 0.5
     assert run.joint_side.min() > 0.5 * HybridGains().pretension_n  # taut throughout
 
 

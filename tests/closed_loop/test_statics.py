@@ -39,7 +39,7 @@ def _frictionless(n_modules=12, body=None, **robot):
     )
 
 
-def _hand_planar_moments(a, chain, geometry, gain, body):
+def _hand_planar_moments(a, chain, geometry, gain, body, sectors):
     """Moments about each joint of a pose bent in the x-z plane only (theta_y = 0), derived by hand.
 
     Across a joint bent by ``a`` the segment from hole ``(ux, uy, -h)`` to the rotated hole
@@ -63,6 +63,9 @@ def _hand_planar_moments(a, chain, geometry, gain, body):
                 dl_da = ((ux**2 - h**2) * sa - 2 * ux * h * ca) / length
                 dl_db = -uy * (h * (1 + ca) - ux * sa) / length
                 tau[k] -= chain[k, j, i] * np.array([dl_da, dl_db])
+        if not sectors:  # the backbone: -g r theta
+            tau[k, 0] -= r * gain * a[k]
+            continue
         for i in range(3):
             u = np.array([np.cos(psi[k, i]), np.sin(psi[k, i])])
             tau[k] -= r * gain * max(a[k] * u[0], 0.0) * u
@@ -79,18 +82,19 @@ def _hand_planar_moments(a, chain, geometry, gain, body):
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.lists(st.floats(-0.6, 0.6), min_size=4, max_size=4), st.integers(0, 2**32 - 1))
-def test_the_plants_statics_match_statics_derived_by_hand(bends, seed):
+@given(st.lists(st.floats(-0.6, 0.6), min_size=4, max_size=4), st.integers(0, 2**32 - 1), st.booleans())
+def test_the_plants_statics_match_statics_derived_by_hand(bends, seed, sectors):
     """A 4-module pose bent in one plane, every tendon at its own tension, with gravity and a payload: the
     plant's moment on each joint (tendons crossing it, elastic return, gravity) is the hand-derived one to 1e-9 N m."""
     body = Body(gravity=True, payload_kg=0.05, base_tilt_deg=90.0, base_azimuth_deg=0.0)
     recipe = _frictionless(n_modules=4, body=body)
-    plant = Plant(recipe, batch=1, dynamics=FULL)
+    dynamics = JointDynamics(statics="full", elastic_return="sectors" if sectors else "backbone")
+    plant = Plant(recipe, batch=1, dynamics=dynamics)
     chain = np.random.default_rng(seed).uniform(20.0, 300.0, (4, 4, 3)) * on_path(4)[:, :, None]
     theta = np.zeros((1, 4, 2))
     theta[0, :, 0] = bends
     ours = plant.static_moments(theta, chain[None])[0] + plant.elastic_moments(theta)[0]
-    hand = _hand_planar_moments(np.array(bends), chain, recipe.robot, recipe.actuation.gain_n_per_rad, body)
+    hand = _hand_planar_moments(np.array(bends), chain, recipe.robot, recipe.actuation.gain_n_per_rad, body, sectors)
     np.testing.assert_allclose(ours, hand, rtol=0, atol=1e-9)
 
 
@@ -161,7 +165,10 @@ def _energy(plant, chain_tension):
     g = plant.geometry
     psi = tendon_azimuths(g)
     kinetic = 0.5 * np.sum(plant.inertia[None, :, None] * plant.omega**2, axis=(1, 2))
-    elastic = elastic_energy(plant.theta, psi, plant.gain, g.hole_radius)
+    if plant.isotropic:  # the backbone: K |theta|^2 / 2 per joint
+        elastic = 0.5 * plant.stiffness * np.sum(plant.theta**2, axis=(1, 2))
+    else:
+        elastic = elastic_energy(plant.theta, psi, plant.gain, g.hole_radius)
     rot, piv = link_frames(plant.theta, g)
     h = 0.5 * g.joint_gap
     centre = piv + (h + 0.5 * g.link_length) * rot[..., :, 2]
@@ -175,11 +182,12 @@ def _energy(plant, chain_tension):
     return kinetic + elastic + gravity + tendons
 
 
-def _energy_drift(dt):
+def _energy_drift(dt, elastic_return):
     """Relative change of the total energy of an undamped, frictionless 4-module robot over 0.1 s."""
     body = Body(gravity=True, payload_kg=0.1, base_tilt_deg=60.0, base_azimuth_deg=40.0)
     recipe = _frictionless(n_modules=4, body=body)
-    plant = Plant(recipe, batch=1, dynamics=JointDynamics(statics="full", damping_ratio=0.0), dt=dt)
+    dynamics = JointDynamics(statics="full", damping_ratio=0.0, elastic_return=elastic_return)
+    plant = Plant(recipe, batch=1, dynamics=dynamics, dt=dt)
     tension = np.random.default_rng(0).uniform(60.0, 120.0, (1, 4, 3))
     plant.reset(tension)
     plant.theta = np.random.default_rng(1).uniform(-0.1, 0.1, (1, 4, 2))
@@ -195,11 +203,12 @@ def _energy_drift(dt):
     return abs(_energy(plant, tension)[0] - start) / kinetic
 
 
-def test_the_plant_conserves_energy_without_damping_or_friction():
+@pytest.mark.parametrize("elastic_return", ["backbone", "sectors"])
+def test_the_plant_conserves_energy_without_damping_or_friction(elastic_return):
     """The elastic return is integrated exactly (zero-order hold per sector); the tendons' and gravity's
     moments are held over each step, which leaks energy at first order in the step.  So the leak is small
     and halves with the step: a missing or wrong moment would leak at every step size alike."""
-    coarse, fine = _energy_drift(2e-5), _energy_drift(1e-5)
+    coarse, fine = _energy_drift(2e-5, elastic_return), _energy_drift(1e-5, elastic_return)
     assert fine < 5e-3
     assert 1.6 < coarse / fine < 2.5
 
@@ -221,6 +230,35 @@ def test_the_elastic_return_is_stiffer_towards_a_tendon_than_between_two():
     assert np.linalg.norm(between) == pytest.approx(0.5 * 600 * 0.012 * 0.01)
 
 
+def test_the_sector_return_has_no_stiffness_across_a_bend_towards_one_tendon():
+    """Why the backbone is the default: within 30 deg of a tendon only that tendon's share pulls, so the
+    sectors' return has no stiffness across that tendon, and any tension (whose geometric softening is
+    negative) makes the joint unstable there.  A 1 mrad step across the tendon changes the return not at
+    all (to rounding) at a bend 10 deg from it; between two tendons (60 deg) a step across the bend meets
+    3 g r / 2 (``u_1 u_1^T + u_2 u_2^T`` across the bend: cos^2 30 deg twice)."""
+    psi = np.array([[0.0, 2 * np.pi / 3, 4 * np.pi / 3]])
+    g, r = 1000.0, 0.012
+    for azimuth, across, expected in (
+        (np.deg2rad(10.0), np.array([0.0, 1.0]), 0.0),
+        (np.pi / 3, np.array([-np.sin(np.pi / 3), np.cos(np.pi / 3)]), 1.5 * g * r),
+    ):
+        bend = 0.05 * np.array([np.cos(azimuth), np.sin(azimuth)])
+        change = elastic_return((bend + 1e-3 * across)[None], psi, g, r) - elastic_return(bend[None], psi, g, r)
+        assert -change[0] @ across / 1e-3 == pytest.approx(expected, abs=1e-9)
+
+
+def test_the_backbone_return_is_isotropic():
+    recipe = load_recipe("snake12-paper")
+    plant = Plant(recipe, batch=1, dynamics=FULL)
+    theta = np.random.default_rng(3).uniform(-0.1, 0.1, (1, 12, 2))
+    k = recipe.actuation.gain_n_per_rad * recipe.robot.hole_radius
+    np.testing.assert_allclose(plant.elastic_moments(theta), -k * theta, rtol=1e-12)
+    sectors = Plant(recipe, batch=1, dynamics=JointDynamics(statics="full", elastic_return="sectors"))
+    np.testing.assert_allclose(
+        sectors.elastic_moments(theta), elastic_return(theta, sectors.psi, recipe.actuation.gain_n_per_rad, 0.012)
+    )
+
+
 def test_tendon_moments_ignore_entries_off_the_path():
     """A model's chain is NaN where a set does not cross a joint; those entries are not read."""
     geometry = RobotGeometry(n_modules=3)
@@ -237,6 +275,8 @@ def test_bad_body_and_dynamics_settings_are_refused():
         Body(base_tilt_deg=200.0)
     with pytest.raises(ConfigError, match="statics"):
         JointDynamics(statics="everything")
+    with pytest.raises(ConfigError, match="elastic_return"):
+        JointDynamics(elastic_return="springs")
     with pytest.raises(ConfigError, match=r"\[body\]"):
         from tendon_id.sim import Recipe
 

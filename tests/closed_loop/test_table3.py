@@ -20,6 +20,8 @@ def _run(seed, settle, estimator="capstan-nonsmooth"):
         "stick_fraction": 0.1,
         "reverse_fraction": 0.0,
         "stick_fraction_hold": 0.1,
+        "intermediate_rmse_n": 2.0,
+        "load_error_nm": 0.05,
     }
     return {
         "regime": "posterior-3",
@@ -57,13 +59,20 @@ def test_closed_loop_tests_give_the_json_floor_and_a_page(tmp_path):
         for key in ("rise_s", "settle_s", "rms_deg"):
             assert r[key] is None or (isinstance(r[key], float) and np.isfinite(r[key]))
     oracle = [r for r in rows if r["estimator"] == "oracle"]
-    assert all(r["settle_s"] is not None for r in oracle)
+    assert all(r["settle_s"] is not None for r in oracle)  # the oracle settles every loop
+    # The oracle's intermediate estimates carry the cells' 1 N noise alone; the proximal hypothesis
+    # (no loss along the path) misses every guide's friction.
+    proximal = [r for r in rows if r["estimator"] == "proximal"]
+    for o, p in zip(oracle, proximal):
+        assert o["why"]["intermediate_rmse_n"] < 1.5 < p["why"]["intermediate_rmse_n"]
+        assert o["why"]["load_error_nm"] < p["why"]["load_error_nm"]
     result.update(recipe="snake12-paper", preset="fast", seconds=1.0, fit_seconds=0.0, benchmark="table3")
     json.dumps(result)  # plain JSON all the way down
     text = format_table3(result)
     assert "posterior-6" in text and "oracle" in text
     page = write_table3_page(result, tmp_path / "t3.html").read_text()
     assert "<img" in page and "Table III" in page and "proximal" in page
+    assert "What intermediate accuracy buys" in page and "intermediate RMSE [N]" in page
 
 
 @pytest.mark.slow
