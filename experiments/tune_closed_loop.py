@@ -6,13 +6,18 @@ paper's step regimes and three seeds kept apart from the benchmark's (100-102). 
 that settle in the most loops, and among those with the smallest mean settling time (then RMS), become
 :class:`~tendon_id.closed_loop.HybridGains`' defaults; every estimator is compared with them.
 
-    python experiments/tune_closed_loop.py [--recipe snake12-paper] [--statics own_set|full] [--json tune.json]
+    python experiments/tune_closed_loop.py [--recipe snake12-paper] [--statics full|own_set] [--json tune.json]
         [--kp 16 32 64] [--ki 2 5 10] [--kt 0.5 0.7 1] [--kd 0] [--smoothing 1] [--pretension 80]
 
-``--statics full`` tunes on the plant with every tendon crossing a joint pulling on it
-(:class:`~tendon_id.closed_loop.JointDynamics`).  A batch whose robots leave the friction law's
-range (a gain set that diverges) is rerun one gain set at a time, and the diverged ones count
-as unsettled in every loop of that case.
+The defaults of :class:`~tendon_id.closed_loop.HybridGains` came from four grids on the full plant
+(:doc:`/guide/closed_loop`), for example::
+
+    python experiments/tune_closed_loop.py --kp 4 8 --ki 2 5 --kt 0.5 --smoothing 0.3
+
+``--statics full`` (the default) tunes on the plant with every tendon crossing a joint pulling
+on it (:class:`~tendon_id.closed_loop.JointDynamics`); ``own_set`` on the earlier plant.  A batch
+whose robots leave the friction law's range (a gain set that diverges) is rerun one gain set at
+a time, and the diverged ones count as unsettled in every loop of that case.
 """
 
 from __future__ import annotations
@@ -37,7 +42,7 @@ SEEDS = (100, 101, 102)
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--recipe", default="snake12-paper")
-    ap.add_argument("--statics", choices=("own_set", "full"), default="own_set")
+    ap.add_argument("--statics", choices=("own_set", "full"), default="full")
     ap.add_argument("--json", default=None)
     ap.add_argument("--kp", type=float, nargs="+", default=KP, help="proportional gains [N m/rad]")
     ap.add_argument("--ki", type=float, nargs="+", default=KI, help="integral gains [N m/(rad s)]")
@@ -45,6 +50,8 @@ def main() -> None:
     ap.add_argument("--kd", type=float, nargs="+", default=(0.0,), help="rate gains [N m s/rad]")
     ap.add_argument("--smoothing", type=float, nargs="+", default=(1.0,), help="chain low-pass fractions [-]")
     ap.add_argument("--pretension", type=float, nargs="+", default=(80.0,), help="pretensions P [N]")
+    ap.add_argument("--seeds", type=int, nargs="+", default=SEEDS, help="seeds (keep them apart from 0-2)")
+    ap.add_argument("--regimes", nargs="+", default=tuple(STEP_TESTS), choices=tuple(STEP_TESTS))
     args = ap.parse_args()
     dynamics = JointDynamics(statics=args.statics)
     recipe = load_recipe(args.recipe)
@@ -55,7 +62,7 @@ def main() -> None:
         )
     ]
     t0 = time.perf_counter()
-    cases = [(test, seed) for test in STEP_TESTS.values() for seed in SEEDS]
+    cases = [(STEP_TESTS[regime], seed) for regime in args.regimes for seed in args.seeds]
     settles = np.full((len(grid), 2 * len(cases)), np.nan)
     rms = np.zeros((len(grid), 2 * len(cases)))
     for c, (test, seed) in enumerate(cases):

@@ -117,12 +117,13 @@ def test_surprises_explain_a_negative_r2_and_a_baseline_that_wins():
     assert surprises({"p6": {"base": _score(40.0, 0.5), "net": _score(30.0, 0.7)}}, test, {"net"}) == []
 
 
-def _row(est, loop, settle, torque):
+def _row(est, loop, settle, torque, rms=0.3):
     return {
         "regime": "p3",
         "estimator": est,
         "loop": loop,
         "settle_s": settle,
+        "rms_deg": rms,
         "seeds": 1,
         "why": {"torque_error_nm": torque},
     }
@@ -148,6 +149,16 @@ def test_closed_loop_lead_warns_first_when_the_oracle_itself_does_not_settle():
     assert lead[1][1] == "verdict" and "a settles fastest" in lead[1][0]
     settled = [_row("oracle", k, 1.5, 0.02) for k in (1, 2)] + rows[2:]
     assert all(tone != "warning" for _, tone in loop_lead({"rows": settled}))
+
+
+def test_closed_loop_lead_ranks_by_rms_when_no_estimator_settles():
+    """A loop that never settles is not "fastest": with none settled everywhere, the RMS error ranks them."""
+    rows = [_row("oracle", k, 1.5, 0.02, rms=0.3) for k in (1, 2)]
+    rows += [_row("a", 1, None, 0.3, rms=1.4), _row("a", 2, None, 0.3, rms=1.2)]
+    rows += [_row("b", 1, 6.0, 0.5, rms=0.7), _row("b", 2, None, 0.5, rms=1.1)]
+    verdict = loop_lead({"rows": rows})[0][0]
+    assert "no estimator settles in every loop; b tracks best (RMS 0.90°), a worst (1.30°)" in verdict
+    assert "against 0.30° with the true tensions" in verdict and "fastest" not in verdict
 
 
 def _rec(angle_deg, tension):

@@ -5,9 +5,11 @@ at its own (:mod:`~tendon_id.closed_loop.controller`).  A fitted zoo model runs 
 frame at a time, by predicting its chain (``predict_chain``) on the whole history so far and
 keeping the last frame.  Every zoo model's prediction is causal, so this is what it would
 give online; the history route costs O(t) per frame, which a run of a few hundred frames
-affords.  Where the plant drives each joint by its own set only (``JointDynamics(statics=
-"own_set")``) the controller reads the chain's diagonal alone, and a model with a streaming
-engine (``pg-chtc``, ``pg-chtc-ns``) runs through it, which gives each set's own joint only.
+affords.  A model with a history window (``history_frames``, 20 for the cascades) sees the run's
+first frame repeated before it: the plant starts at rest, at its pretension.  Where the plant
+drives each joint by its own set only (``JointDynamics(statics="own_set")``) the controller
+reads the chain's diagonal alone, and a model with a streaming engine (``pg-chtc``,
+``pg-chtc-ns``) runs through it, which gives each set's own joint only.
 """
 
 from __future__ import annotations
@@ -90,6 +92,11 @@ class ModelInLoop(InLoopEstimator):
             chain = np.full((n, n, 3), np.nan)
             chain[np.arange(n), np.arange(n)] = own
             return chain
+        if not self.angles:
+            # Before the run the robot rested at its first frame (the plant starts at rest, at its
+            # pretension), so a model that needs a history window sees that frame repeated.
+            self.angles.extend([angles] * (self.model.history_frames - 1))
+            self.actuator.extend([actuator] * (self.model.history_frames - 1))
         self.angles.append(angles)
         self.actuator.append(actuator)
         n_frames = len(self.angles)

@@ -36,7 +36,7 @@ def chain_figure(rows: list[dict], colours: dict):
     if not any(_points(rows, g, loop) for g in regimes for loop in (1, 2)):
         return None
     plt = pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.2))
     markers = {1: "o", 2: "s"}
     fills = dict(zip(regimes, ("full", "none", "left", "right")))
     settled = [p[2] for g in regimes for loop in (1, 2) for p in _points(rows, g, loop) if p[2] is not None]
@@ -66,9 +66,10 @@ def chain_figure(rows: list[dict], colours: dict):
     ]
     handles += [plt.Line2D([], [], color="k", marker=markers[lp], ls="none", label=f"loop {lp}") for lp in (1, 2)]
     handles += [plt.Line2D([], [], color="k", marker="o", fillstyle=fills[g], ls="none", label=g) for g in regimes]
-    axes[1].legend(handles=handles, fontsize=8, loc="upper left")
+    # Beside the axes, not over them: the points fill both panels.
+    fig.legend(handles=handles, fontsize=8, loc="center left", bbox_to_anchor=(0.86, 0.5), frameon=False)
     fig.suptitle("What intermediate accuracy buys: the same closed-loop runs", fontsize=11)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 0.86, 1))
     return fig
 
 

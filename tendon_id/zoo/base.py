@@ -51,6 +51,11 @@ class TransmissionModel(Estimator):
         return self.predict(data)[:, -1]
 
     @property
+    def history_frames(self) -> int:
+        """Frames a recording needs before ``predict`` accepts it: the history window, 1 without one."""
+        return 1
+
+    @property
     def is_fitted(self) -> bool:
         return bool(getattr(self, "n_modules_", None))
 

@@ -148,6 +148,10 @@ class _Baseline(TransmissionModel):
     def _history_window(self) -> int:
         return int(self.window) if self.kind == "transformer" else 1
 
+    @property
+    def history_frames(self) -> int:
+        return self._history_window()
+
     # ---- estimator API ------------------------------------------------------------------------
     def fit(self, data: Recording | Sequence[Recording]) -> _Baseline:
         """Train on the terminal labels of the training trajectories (early stopping on the rest)."""

@@ -250,6 +250,11 @@ class PGCHTC(GuardedCascade):
             r.check_history_window(self.cascade_.cfg.window)
         return recs
 
+    @property
+    def history_frames(self) -> int:
+        self.check_fitted()
+        return int(self.cascade_.cfg.window)
+
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
         """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``.
 

@@ -52,3 +52,32 @@ def test_bad_gains_are_refused():
         HybridGains(kd=-1.0)
     with pytest.raises(ConfigError, match="chain_smoothing"):
         HybridGains(chain_smoothing=0.0)
+
+
+class _WindowedModel:
+    """A stand-in for a model with a 5-frame history window: it checks the window and echoes the actuator side."""
+
+    history_frames = 5
+
+    def check_fitted(self):
+        return None
+
+    def predict_chain(self, rec):
+        assert rec.n_frames >= self.history_frames  # what a windowed zoo model's check refuses
+        self.seen = rec.actuator.copy()
+        n = rec.actuator.shape[1]
+        return np.broadcast_to(rec.actuator[:, None], (rec.n_frames, n, n, 3)).copy()
+
+
+def test_a_windowed_model_sees_the_first_frame_repeated_before_the_run():
+    from tendon_id.closed_loop import ModelInLoop
+
+    model = _WindowedModel()
+    est = ModelInLoop(model, "windowed", PERIOD)
+    first, second = np.full((12, 3), 80.0), np.full((12, 3), 90.0)
+    out = est.step(np.zeros((12, 2)), first, None)
+    assert model.seen.shape[0] == 5 and np.all(model.seen == 80.0)
+    np.testing.assert_array_equal(out[3, 7], first[7])
+    out = est.step(np.zeros((12, 2)), second, None)
+    assert model.seen.shape[0] == 6 and np.all(model.seen[-1] == 90.0) and np.all(model.seen[:-1] == 80.0)
+    np.testing.assert_array_equal(out[3, 7], second[7])
