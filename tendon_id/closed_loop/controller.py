@@ -7,9 +7,12 @@ Two loops per joint ``k``, run once per controller period ``T_c``:
   else acting on the joint, every distal set's tendons that pass through it, at the
   estimator's tensions ``T_hat[k, j]`` (``j > k``), and gravity::
 
-      tau_d = -tau_e(theta_ref) + k_p e + k_i sum(e) T_c - tau_pass(theta, T_hat) - tau_g(theta)
+      tau_d = -tau_e(theta_ref) + k_p e + k_i sum(e) T_c + k_d (e - e_prev) / T_c
+              - tau_pass(theta, T_hat) - tau_g(theta)
 
-  with ``e = theta_ref - theta`` (:mod:`~tendon_id.closed_loop.statics`).  This is why the
+  with ``e = theta_ref - theta`` (:mod:`~tendon_id.closed_loop.statics`; ``k_d`` is 0 by
+  default), and ``T_hat`` the estimator's chain low-passed over a few periods
+  (:class:`HybridGains`' ``chain_smoothing``: the feedforward sums many noisy cells).  This is why the
   intermediate estimates matter: a set's tendons load every joint on their way to their own,
   and the controller can only cancel that load as well as it knows their tensions there.
   The desired joint torque becomes desired joint-side tensions by the minimum-tension
