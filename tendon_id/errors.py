@@ -69,3 +69,11 @@ class ConfigError(TendonIdError, ValueError):
         if self.param and self.param in flags:
             return f"{flags[self.param]}: {self.reason}"
         return str(self)
+
+
+class DefaultedGeometryWarning(UserWarning):
+    """The data did not describe part of the robot, and the paper robot's value stood in for it.
+
+    Raised by :func:`tendon_id.zoo.inputs.robot_of`, naming every defaulted field and its value;
+    the command line prints it as one ``tendon-id: warning:`` line.
+    """

@@ -21,6 +21,7 @@ import typer.core
 
 from tendon_id import __version__
 from tendon_id.atomic import record_writes
+from tendon_id.cli.common import geometry_warnings
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.progress import interrupt_message
 from tendon_id.progress import reset as reset_progress
@@ -105,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = bare_json(list(sys.argv[1:] if argv is None else argv))
     command = typer.main.get_command(app)
     reset_progress()
-    with record_writes() as written:
+    with record_writes() as written, geometry_warnings():
         try:
             rv = command.main(args=argv, prog_name="tendon-id", standalone_mode=False)
             if rv == 130:  # typer's answer to a Ctrl-C (no command returns a number)

@@ -21,6 +21,7 @@ __all__ = [
     "mapping_option",
     "parse_sets",
     "read_all",
+    "geometry_warnings",
     "training_warnings",
 ]
 
@@ -103,6 +104,25 @@ def read_all(paths: list[Path] | None, mapping: str | None = None, param: str = 
     if not paths:
         raise ConfigError("give at least one recording", param=param)
     return read_files(paths, load_mapping(mapping_path(mapping)) if mapping else None)
+
+
+@contextmanager
+def geometry_warnings():
+    """Show each distinct defaulted-geometry warning once, as one line on stderr (the whole command)."""
+    from tendon_id.errors import DefaultedGeometryWarning
+
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, DefaultedGeometryWarning):
+            typer.echo(f"tendon-id: warning: {message}", err=True)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("once", DefaultedGeometryWarning)
+        warnings.showwarning = show
+        yield
 
 
 @contextmanager

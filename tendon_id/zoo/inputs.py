@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -11,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.data import Recording
-from tendon_id.errors import ConfigError
+from tendon_id.errors import ConfigError, DefaultedGeometryWarning
 from tendon_id.family.inputs import FrameInputs
 from tendon_id.geometry import RobotGeometry, backbone_wrap
 from tendon_id.sliding import guide_sliding_distance
@@ -48,9 +49,26 @@ def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None
             )
         # Metadata without a module count describes the robot the columns show.
         geometry = RobotGeometry.from_dict({"n_modules": n, **metas[0]}) if metas[0] else RobotGeometry(n_modules=n)
+        _warn_defaulted(geometry, metas[0] or {}, recordings[0])
     if geometry.n_modules != n:
         raise ConfigError(f"the robot has {geometry.n_modules} modules but the data has {n}")
     return geometry
+
+
+def _warn_defaulted(geometry: RobotGeometry, described: dict, recording: Recording) -> None:
+    """Warn, naming each field and value, where the recordings' metadata left the robot to the defaults."""
+    defaulted = {k: v for k, v in geometry.to_dict().items() if k != "n_modules" and k not in described}
+    if not defaulted:
+        return
+    where = f" ({recording.source})" if getattr(recording, "source", None) else ""
+    values = ", ".join(f"{k}={v:.6g}" for k, v in defaulted.items())
+    what = "describe no robot" if not described else "leave part of the robot undescribed"
+    warnings.warn(
+        f"the recordings{where} {what}; the paper robot's values stand in: {values} (SI units: m, rad). "
+        "Give them in the recording's 'robot' metadata (a mapping's [meta] robot) or pass robot=",
+        DefaultedGeometryWarning,
+        stacklevel=3,
+    )
 
 
 @dataclass(frozen=True)
