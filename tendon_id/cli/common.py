@@ -107,41 +107,34 @@ def read_all(paths: list[Path] | None, mapping: str | None = None, param: str = 
 
 
 @contextmanager
+def _warnings_as_lines(category: type[Warning], action: str):
+    """Show warnings of ``category`` as ``tendon-id: warning:`` lines on stderr, filtered by ``action``."""
+    shown = warnings.showwarning
+
+    def show(message, cat, filename, lineno, file=None, line=None):
+        if issubclass(cat, category):
+            typer.echo(f"tendon-id: warning: {message}", err=True)
+        else:
+            shown(message, cat, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter(action, category)
+        warnings.showwarning = show
+        yield
+
+
 def geometry_warnings():
     """Show each distinct defaulted-geometry warning once, as one line on stderr (the whole command)."""
     from tendon_id.errors import DefaultedGeometryWarning
 
-    shown = warnings.showwarning
-
-    def show(message, category, filename, lineno, file=None, line=None):
-        if issubclass(category, DefaultedGeometryWarning):
-            typer.echo(f"tendon-id: warning: {message}", err=True)
-        else:
-            shown(message, category, filename, lineno, file, line)
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("once", DefaultedGeometryWarning)
-        warnings.showwarning = show
-        yield
+    return _warnings_as_lines(DefaultedGeometryWarning, "once")
 
 
-@contextmanager
 def training_warnings():
     """Show a training stopped by a non-finite loss as one line on stderr, every time it happens."""
     from learners.loop import NonFiniteLossWarning
 
-    shown = warnings.showwarning
-
-    def show(message, category, filename, lineno, file=None, line=None):
-        if issubclass(category, NonFiniteLossWarning):
-            typer.echo(f"tendon-id: warning: {message}", err=True)
-        else:
-            shown(message, category, filename, lineno, file, line)
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("always", NonFiniteLossWarning)
-        warnings.showwarning = show
-        yield
+    return _warnings_as_lines(NonFiniteLossWarning, "always")
 
 
 def echo_guard(m) -> None:

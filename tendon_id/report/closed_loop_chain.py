@@ -10,8 +10,7 @@ estimates, measured in the same closed-loop runs (mean over seeds).
 
 from __future__ import annotations
 
-import numpy as np
-
+from tendon_id.report.closed_loop_lead import mean_why
 from tendon_id.report.html import pyplot
 
 #: A loop that never settled is drawn at this height above the slowest that did, marked "never".
@@ -77,10 +76,10 @@ def chain_rows(rows: list[dict]) -> list[list[str]]:
     """Table rows: estimator and regime, intermediate RMSE and load error, then settle and RMS per loop."""
     out = []
     keys = list(dict.fromkeys((r["regime"], r["estimator"]) for r in rows if "intermediate_rmse_n" in r["why"]))
-    for regime, name in sorted(keys, key=lambda k: (k[0], _mean(rows, *k, "intermediate_rmse_n"))):
+    for regime, name in sorted(keys, key=lambda k: (k[0], mean_why(rows, k[1], k[0], "intermediate_rmse_n"))):
         loops = {r["loop"]: r for r in rows if (r["regime"], r["estimator"]) == (regime, name)}
-        cells = [regime, name, f"{_mean(rows, regime, name, 'intermediate_rmse_n'):.1f}"]
-        cells.append(f"{_mean(rows, regime, name, 'load_error_nm'):.3f}")
+        cells = [regime, name, f"{mean_why(rows, name, regime, 'intermediate_rmse_n'):.1f}"]
+        cells.append(f"{mean_why(rows, name, regime, 'load_error_nm'):.3f}")
         for loop in (1, 2):
             r = loops.get(loop)
             cells.append("-" if r is None else ("never" if r["settle_s"] is None else f"{r['settle_s']:.2f}"))
@@ -99,8 +98,3 @@ CHAIN_HEADER = [
     "settle, loop 2 [s]",
     "RMS, loop 2 [°]",
 ]
-
-
-def _mean(rows: list[dict], regime: str, name: str, key: str) -> float:
-    """Mean of ``why[key]`` over both loops of one estimator and regime."""
-    return float(np.mean([r["why"][key] for r in rows if (r["regime"], r["estimator"]) == (regime, name)]))

@@ -29,7 +29,8 @@ def _mean_rms(rows: list[dict], estimator: str, regime: str) -> float:
     return float(np.mean([r["rms_deg"] for r in rows if r["estimator"] == estimator and r["regime"] == regime]))
 
 
-def _mean_why(rows: list[dict], estimator: str, regime: str, key: str) -> float:
+def mean_why(rows: list[dict], estimator: str, regime: str, key: str) -> float:
+    """Mean of ``why[key]`` over both loops of one estimator and regime."""
     return float(np.mean([r["why"][key] for r in rows if r["estimator"] == estimator and r["regime"] == regime]))
 
 
@@ -131,13 +132,13 @@ def lead_sentences(result: Mapping, open_loop: Mapping[str, float] | None = None
             text += "."
         out.append((text, "verdict"))
         if worst != best:
-            tq = {e: _mean_why(rows, e, regime, "torque_error_nm") for e in (best, worst)}
+            tq = {e: mean_why(rows, e, regime, "torque_error_nm") for e in (best, worst)}
             why = (
                 f"Why: what the controller feels is the joint torque an estimate implies; at the stepped joints "
                 f"{worst}'s is off by {tq[worst]:.2f} N m (RMS) against {tq[best]:.2f} N m for {best}"
             )
             if all("load_error_nm" in r["why"] for r in rows):
-                load = {e: _mean_why(rows, e, regime, "load_error_nm") for e in (best, worst)}
+                load = {e: mean_why(rows, e, regime, "load_error_nm") for e in (best, worst)}
                 why += (
                     f", and the pass-through load its intermediate estimates imply by {load[worst]:.2f} N m against "
                     f"{load[best]:.2f} N m"

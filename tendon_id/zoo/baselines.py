@@ -145,12 +145,9 @@ class _Baseline(TransmissionModel):
             ys = [y[s:e] for s, e in bounds]
         return xs, ys, bounds, inp
 
-    def _history_window(self) -> int:
-        return int(self.window) if self.kind == "transformer" else 1
-
     @property
     def history_frames(self) -> int:
-        return self._history_window()
+        return int(self.window) if self.kind == "transformer" else 1
 
     # ---- estimator API ------------------------------------------------------------------------
     def fit(self, data: Recording | Sequence[Recording]) -> _Baseline:
@@ -161,7 +158,7 @@ class _Baseline(TransmissionModel):
         if not 0.0 <= float(self.val_fraction) < 1.0:
             raise ConfigError(f"{self.name}: val_fraction must be in [0, 1), got {self.val_fraction!r}")
         for r in recs:
-            r.check_history_window(self._history_window())
+            r.check_history_window(self.history_frames)
         allrec = Recording.concat(recs) if len(recs) > 1 else recs[0]
         if self.val_fraction > 0:
             if len(allrec.trajectories) < 2:
@@ -211,7 +208,7 @@ class _Baseline(TransmissionModel):
     def _check(self, data) -> list[Recording]:
         recs = self._check_data(data)
         for r in recs:
-            r.check_history_window(self._history_window())
+            r.check_history_window(self.history_frames)
         return recs
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:

@@ -29,6 +29,9 @@ def as_recordings(data: Recording | Sequence[Recording]) -> list[Recording]:
 def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None = None) -> RobotGeometry:
     """The robot description: an explicit one, else the recordings' metadata, else the defaults.
 
+    Whatever a description leaves out takes the paper robot's value, with a
+    :class:`~tendon_id.errors.DefaultedGeometryWarning` naming it.
+
     Raises
     ------
     ConfigError
@@ -39,32 +42,35 @@ def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None
         raise ConfigError("all recordings must have the same number of modules")
     if isinstance(robot, RobotGeometry):
         geometry = robot
-    elif robot is not None:
-        geometry = RobotGeometry.from_dict({**RobotGeometry(n_modules=n).to_dict(), **dict(robot)})
     else:
-        metas = [r.meta.get("robot") for r in recordings]
-        if any(m != metas[0] for m in metas):
-            raise ConfigError(
-                "recordings come from different robots (their 'robot' metadata differ); pass robot= explicitly"
-            )
-        # Metadata without a module count describes the robot the columns show.
-        geometry = RobotGeometry.from_dict({"n_modules": n, **metas[0]}) if metas[0] else RobotGeometry(n_modules=n)
-        _warn_defaulted(geometry, metas[0] or {}, recordings[0])
+        if robot is not None:
+            described = dict(robot)
+        else:
+            metas = [r.meta.get("robot") for r in recordings]
+            if any(m != metas[0] for m in metas):
+                raise ConfigError(
+                    "recordings come from different robots (their 'robot' metadata differ); pass robot= explicitly"
+                )
+            described = dict(metas[0] or {})
+        # A description without a module count describes the robot the columns show.
+        geometry = RobotGeometry.from_dict({"n_modules": n, **described})
+        source = recordings[0].source
+        where = "the robot given" if robot is not None else f"the recordings{f' ({source})' if source else ''}"
+        _warn_defaulted(geometry, described, where)
     if geometry.n_modules != n:
         raise ConfigError(f"the robot has {geometry.n_modules} modules but the data has {n}")
     return geometry
 
 
-def _warn_defaulted(geometry: RobotGeometry, described: dict, recording: Recording) -> None:
-    """Warn, naming each field and value, where the recordings' metadata left the robot to the defaults."""
+def _warn_defaulted(geometry: RobotGeometry, described: dict, where: str) -> None:
+    """Warn, naming each field and value, where a robot description left the robot to the defaults."""
     defaulted = {k: v for k, v in geometry.to_dict().items() if k != "n_modules" and k not in described}
     if not defaulted:
         return
-    where = f" ({recording.source})" if getattr(recording, "source", None) else ""
     values = ", ".join(f"{k}={v:.6g}" for k, v in defaulted.items())
     what = "describe no robot" if not described else "leave part of the robot undescribed"
     warnings.warn(
-        f"the recordings{where} {what}; the paper robot's values stand in: {values} (SI units: m, rad). "
+        f"{where} {what}; the paper robot's values stand in: {values} (SI units: m, rad). "
         "Give them in the recording's 'robot' metadata (a mapping's [meta] robot) or pass robot=",
         DefaultedGeometryWarning,
         stacklevel=3,

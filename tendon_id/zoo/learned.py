@@ -247,7 +247,7 @@ class PGCHTC(GuardedCascade):
     def _check(self, data) -> list[Recording]:
         recs = self._check_data(data)
         for r in recs:
-            r.check_history_window(self.cascade_.cfg.window)
+            r.check_history_window(self.history_frames)
         return recs
 
     @property
