@@ -15,6 +15,7 @@ from pathlib import Path
 from tendon_id import __version__
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
+from tendon_id.robot_file import bundled_dir
 from tendon_id.sim import Recipe, parse_effect_names, simulate
 
 #: The recipe that ``tendon-id demo``, ``tendon-id simulate`` and :func:`load` use when none is named: elastic
@@ -28,10 +29,7 @@ SIMULATION_REVISION = 3
 
 def recipe_dir() -> Path:
     """Folder of the bundled recipes: inside an installed wheel, else the checkout's ``datasets/``."""
-    bundled = Path(__file__).parent / "_recipes"
-    if bundled.is_dir():
-        return bundled
-    return Path(__file__).resolve().parents[1] / "datasets"
+    return bundled_dir()
 
 
 def names() -> list[str]:

@@ -47,7 +47,7 @@ def sliding_speed(theta: NDArray, geometry: RobotGeometry, reset: NDArray, dt: f
     n = geometry.n_modules
     psi = tendon_azimuths(geometry)
     cum_rate = backward_rate(np.cumsum(theta, axis=1), reset, dt)
-    out = np.zeros((theta.shape[0], n - 1, n, 3))
+    out = np.zeros((theta.shape[0], n - 1, n, psi.shape[-1]))
     for g in range(n - 1):
         out[:, g, g + 1 :] = sliding_speed_at(cum_rate, g, psi, geometry.hole_radius)
     return out

@@ -162,7 +162,7 @@ def case_recipe(case: Case):
     params = _scaled_effects(lib, scale)
     if "actuator_cells" in params:  # the robot's cells, the same in its training and test runs
         cells = EFFECT_TYPES["actuator_cells"](**params["actuator_cells"])
-        gain, offset = cell_errors(case.seed, recipe.robot.n_modules, cells)
+        gain, offset = cell_errors(case.seed, recipe.robot.n_modules, cells, recipe.robot.n_tendons)
         params["actuator_cells"] = {"gain": gain.tolist(), "offset": offset.tolist()}
     for name in case.truth if case.kind == "other-form" else ():
         on, settings = form_settings(name, scale, Effects())

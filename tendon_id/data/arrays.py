@@ -62,11 +62,12 @@ def frame_from_arrays(
         raise RecordingError(f"angles must have shape (T={T}, N, 2), got {angles.shape}")
     n = angles.shape[1]
     actuator = np.asarray(actuator, dtype=np.float64)
-    if actuator.shape != (T, n, 3):
-        raise RecordingError(f"actuator must have shape {(T, n, 3)}, got {actuator.shape}")
+    if actuator.ndim != 3 or actuator.shape[:2] != (T, n) or actuator.shape[2] < 2:
+        raise RecordingError(f"actuator must have shape (T={T}, N={n}, tendons >= 2), got {actuator.shape}")
+    m = actuator.shape[2]
     terminal = np.asarray(terminal, dtype=np.float64)
-    if terminal.shape != (T, 3):
-        raise RecordingError(f"terminal must have shape {(T, 3)}, got {terminal.shape}")
+    if terminal.shape != (T, m):
+        raise RecordingError(f"terminal must have shape {(T, m)}, got {terminal.shape}")
     if isinstance(trajectory, str):
         traj = np.full(T, trajectory, dtype=object)
     else:
@@ -79,18 +80,18 @@ def frame_from_arrays(
         data[f"theta_{k + 1}_x"] = angles[:, k, 0]
         data[f"theta_{k + 1}_y"] = angles[:, k, 1]
     for j in range(n):
-        for i in range(3):
+        for i in range(m):
             data[f"tension_act_{j + 1}_{i + 1}"] = actuator[:, j, i]
     if joint_truth is not None:
         jt = np.asarray(joint_truth, dtype=np.float64)
-        if jt.shape not in ((T, n, 3), (T, n - 1, 3)):
-            raise RecordingError(f"joint_truth must have shape {(T, n, 3)} or {(T, n - 1, 3)}, got {jt.shape}")
+        if jt.shape not in ((T, n, m), (T, n - 1, m)):
+            raise RecordingError(f"joint_truth must have shape {(T, n, m)} or {(T, n - 1, m)}, got {jt.shape}")
         if jt.shape[1] == n and not np.array_equal(jt[:, n - 1], terminal, equal_nan=True):
             raise RecordingError("joint_truth[:, N-1] must equal terminal", column=f"tension_joint_{n}_1")
         for j in range(n - 1):
-            for i in range(3):
+            for i in range(m):
                 data[f"tension_joint_{j + 1}_{i + 1}"] = jt[:, j, i]
-    for i in range(3):
+    for i in range(m):
         data[f"tension_joint_{n}_{i + 1}"] = terminal[:, i]
     for name, values in (extra or {}).items():
         name = str(name)
@@ -102,6 +103,9 @@ def frame_from_arrays(
         data[name] = values
     meta = dict(meta or {})
     meta.setdefault("n_modules", n)
+    robot = meta.get("robot") or {}
+    if robot.get("n_tendons", 3) != m:
+        raise RecordingError(f"the arrays have {m} tendons per set but robot.n_tendons is {robot.get('n_tendons', 3)}")
     return pd.DataFrame(data), meta
 
 
@@ -126,9 +130,9 @@ def concat_frames(recordings: Sequence[Any]) -> tuple[pd.DataFrame, dict[str, An
     """
     recs = list(recordings)
     first = recs[0]
-    n = first.n_modules
-    truth = [c for c in truth_columns(n) if all(c in r.frame.columns for r in recs)]
-    drop = set(truth_columns(n)) - set(truth)
+    n, m = first.n_modules, first.n_tendons
+    truth = [c for c in truth_columns(n, m) if all(c in r.frame.columns for r in recs)]
+    drop = set(truth_columns(n, m)) - set(truth)
     frames = [r.frame.drop(columns=[c for c in r.frame.columns if c in drop]) for r in recs]
     frame = pd.concat(frames, axis=0, ignore_index=True, sort=False)
 

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from tendon_id.data.columns import PANDAS_COW, is_int, is_real_dtype
-from tendon_id.data.schema import SCHEMA_VERSION, column_names, infer_n_modules, module_index
+from tendon_id.data.schema import SCHEMA_VERSION, column_names, infer_n_modules, module_index, tendon_count
 from tendon_id.errors import RecordingError
 
 __all__ = ["normalise_frame", "normalise_meta"]
@@ -144,7 +144,7 @@ def normalise_frame(frame: pd.DataFrame, meta: Mapping[str, Any], source: str | 
     frame : pandas.DataFrame
         One row per frame, as given.
     meta : mapping
-        Normalised metadata (see :func:`normalise_meta`); only ``n_modules`` is read.
+        Normalised metadata (see :func:`normalise_meta`); only ``n_modules`` and ``robot.n_tendons`` are read.
     source : str or None
         File the data came from, named in errors.
 
@@ -173,7 +173,8 @@ def normalise_frame(frame: pd.DataFrame, meta: Mapping[str, Any], source: str | 
     n = meta.get("n_modules") or infer_n_modules(list(frame.columns))[0]
     if n:
         # Canonical columns first (also makes Parquet output independent of input order).
-        canon = [c for c in column_names(n, truth=True) if c in frame.columns]
+        n_tendons = tendon_count(meta.get("robot"), list(frame.columns))
+        canon = [c for c in column_names(n, truth=True, n_tendons=n_tendons) if c in frame.columns]
         seen = set(canon)
         frame = frame[canon + [c for c in frame.columns if c not in seen]]
 

@@ -29,6 +29,7 @@ from tendon_id.data.schema import (
     hidden_truth_columns,
     infer_n_modules,
     joint_columns,
+    tendon_count,
     theta_columns,
     truth_columns,
 )
@@ -75,7 +76,7 @@ class Recording(FrameRecording):
     units: angles in rad, tensions in N, time in s.
     """
 
-    __slots__ = ()
+    __slots__ = ("_n_tendons",)
     family = family_named("snake")
 
     def __init__(
@@ -98,6 +99,7 @@ class Recording(FrameRecording):
             meta["sample_rate_hz"] = infer_sample_rate(frame)
         self._meta = {k: meta[k] for k in META_ORDER}
         self._meta.update({k: v for k, v in meta.items() if k not in self._meta})
+        self._n_tendons = tendon_count(self._meta["robot"], list(frame.columns))
         if validate:
             self.validate()
 
@@ -107,6 +109,11 @@ class Recording(FrameRecording):
     def n_modules(self) -> int:
         """int : Number of modules ``N``."""
         return self._meta["n_modules"]
+
+    @property
+    def n_tendons(self) -> int:
+        """int : Tendons per set ``n``: the metadata's ``robot.n_tendons``, else the columns', else 3."""
+        return self._n_tendons
 
     @property
     def protocol(self) -> str | None:
@@ -121,33 +128,34 @@ class Recording(FrameRecording):
 
     @property
     def actuator(self) -> np.ndarray:
-        """ndarray, shape (T, N, 3) : Actuator-side tensions ``T[1, j, i]`` [N]; ``[:, j-1, i-1]``."""
-        n = self.n_modules
-        return column_block(self._frame, act_columns(n), (self.n_frames, n, 3))
+        """ndarray, shape (T, N, n) : Actuator-side tensions ``T[1, j, i]`` [N]; ``[:, j-1, i-1]``."""
+        n, m = self.n_modules, self._n_tendons
+        return column_block(self._frame, act_columns(n, m), (self.n_frames, n, m))
 
     @property
     def terminal(self) -> np.ndarray:
-        """ndarray, shape (T, 3) : Terminal joint-side tensions ``T[N, N, :]`` [N] (the label)."""
-        return column_block(self._frame, joint_columns(self.n_modules), (self.n_frames, 3))
+        """ndarray, shape (T, n) : Terminal joint-side tensions ``T[N, N, :]`` [N] (the label)."""
+        m = self._n_tendons
+        return column_block(self._frame, joint_columns(self.n_modules, m), (self.n_frames, m))
 
     @property
     def has_truth(self) -> bool:
         """bool : True when every intermediate truth column ``tension_joint_{j}_{i}``, j < N, exists."""
         cols = self._frame.columns
-        return all(c in cols for c in truth_columns(self.n_modules))
+        return all(c in cols for c in truth_columns(self.n_modules, self._n_tendons))
 
     @property
     def joint_truth(self) -> np.ndarray | None:
-        """ndarray, shape (T, N, 3), or None : Joint-side tensions ``T[j, j, :]`` [N].
+        """ndarray, shape (T, N, n), or None : Joint-side tensions ``T[j, j, :]`` [N].
 
         Row ``j-1`` is joint ``j``; ``[:, N-1]`` is the terminal label. None unless all
         intermediate truth columns are present (simulated data only).
         """
         if not self.has_truth:
             return None
-        n = self.n_modules
-        cols = truth_columns(n) + joint_columns(n)
-        return column_block(self._frame, cols, (self.n_frames, n, 3))
+        n, m = self.n_modules, self._n_tendons
+        cols = truth_columns(n, m) + joint_columns(n, m)
+        return column_block(self._frame, cols, (self.n_frames, n, m))
 
     def __repr__(self) -> str:
         src = f", source={self._source!r}" if self._source else ""
@@ -186,11 +194,11 @@ class Recording(FrameRecording):
             Time within each trajectory [s].
         angles : array-like, shape (T, N, 2)
             Joint angles [rad].
-        actuator : array-like, shape (T, N, 3)
-            Actuator-side tensions [N].
-        terminal : array-like, shape (T, 3)
+        actuator : array-like, shape (T, N, n)
+            Actuator-side tensions [N] of ``n`` tendons per set.
+        terminal : array-like, shape (T, n)
             Terminal joint-side tensions [N].
-        joint_truth : array-like, shape (T, N, 3) or (T, N-1, 3), optional
+        joint_truth : array-like, shape (T, N, n) or (T, N-1, n), optional
             Joint-side truth [N]; row ``j-1`` is joint ``j``. With N rows, the last must equal
             ``terminal``.
         meta : mapping, optional
@@ -270,6 +278,11 @@ class Recording(FrameRecording):
             raise RecordingError(
                 f"cannot concatenate recordings with {first.n_modules} and {other.n_modules} modules", file=other.source
             )
+        if other.n_tendons != first.n_tendons:
+            raise RecordingError(
+                f"cannot concatenate recordings with {first.n_tendons} and {other.n_tendons} tendons per set",
+                file=other.source,
+            )
 
     @classmethod
     def _concat_frames(cls, recs: list) -> tuple[pd.DataFrame, dict[str, Any]]:
@@ -328,7 +341,8 @@ class Recording(FrameRecording):
         RecordingError
             Naming the file, the column and the 0-based frame row of the first offending value.
         """
-        validation.validate(self._frame, self._meta["n_modules"], source=self._source)
+        robot = self._meta["robot"] or {}
+        validation.validate(self._frame, self._meta["n_modules"], source=self._source, n_tendons=robot.get("n_tendons"))
         validation.check_robot_meta(self._meta["robot"], self.n_modules, source=self._source)
 
     def check_history_window(self, h: int) -> None:

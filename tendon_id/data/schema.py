@@ -15,6 +15,7 @@ __all__ = [
     "META_ORDER",
     "AXES",
     "TENDONS",
+    "DEFAULT_TENDONS",
     "THETA_RE",
     "TENSION_RE",
     "column_names",
@@ -27,6 +28,8 @@ __all__ = [
     "intermediate_joints",
     "module_index",
     "infer_n_modules",
+    "infer_n_tendons",
+    "tendon_count",
 ]
 
 #: Version of the column and metadata schema written by this package.
@@ -38,8 +41,10 @@ META_ORDER = ("schema_version", "n_modules", "sample_rate_hz", "protocol", "robo
 #: Axes of the joint angles ``theta_{k}_x``, ``theta_{k}_y``.
 AXES = ("x", "y")
 
-#: Tendon numbers ``i`` of the tension columns.
-TENDONS = (1, 2, 3)
+#: Tendons per set where a recording says nothing (the paper robot's three; ``robot.n_tendons`` sets it).
+DEFAULT_TENDONS = 3
+#: Tendon numbers ``i`` of the tension columns of a 3-tendon robot.
+TENDONS = tuple(range(1, DEFAULT_TENDONS + 1))
 
 # Module-numbered columns. Indices are matched without leading zeros so that ``theta_01_x`` is
 # an extra column rather than silently taken for module 1.
@@ -56,22 +61,22 @@ def theta_columns(n: int) -> list[str]:
     return [f"theta_{k}_{a}" for k in range(1, n + 1) for a in AXES]
 
 
-def act_columns(n: int) -> list[str]:
-    """Actuator-side tension columns ``tension_act_{j}_{i}``, ``j = 1..n`` (j-major)."""
-    return [f"tension_act_{j}_{i}" for j in range(1, n + 1) for i in TENDONS]
+def act_columns(n: int, n_tendons: int = DEFAULT_TENDONS) -> list[str]:
+    """Actuator-side tension columns ``tension_act_{j}_{i}``, ``j = 1..n``, ``i = 1..n_tendons`` (j-major)."""
+    return [f"tension_act_{j}_{i}" for j in range(1, n + 1) for i in range(1, n_tendons + 1)]
 
 
-def joint_columns(j: int) -> list[str]:
-    """Joint-side tension columns ``tension_joint_{j}_{i}`` of joint ``j``, ``i = 1..3``."""
-    return [f"tension_joint_{j}_{i}" for i in TENDONS]
+def joint_columns(j: int, n_tendons: int = DEFAULT_TENDONS) -> list[str]:
+    """Joint-side tension columns ``tension_joint_{j}_{i}`` of joint ``j``, ``i = 1..n_tendons``."""
+    return [f"tension_joint_{j}_{i}" for i in range(1, n_tendons + 1)]
 
 
-def truth_columns(n: int) -> list[str]:
+def truth_columns(n: int, n_tendons: int = DEFAULT_TENDONS) -> list[str]:
     """Intermediate joint-side truth columns, ``j = 1..N-1`` (j-major)."""
-    return [c for j in range(1, n) for c in joint_columns(j)]
+    return [c for j in range(1, n) for c in joint_columns(j, n_tendons)]
 
 
-def column_names(n_modules: int, *, truth: bool = True) -> list[str]:
+def column_names(n_modules: int, *, truth: bool = True, n_tendons: int = DEFAULT_TENDONS) -> list[str]:
     """Canonical column names of a recording, in canonical order.
 
     Parameters
@@ -81,6 +86,8 @@ def column_names(n_modules: int, *, truth: bool = True) -> list[str]:
     truth : bool, default True
         Include the intermediate joint-side truth columns ``tension_joint_{j}_{i}``, ``j < N``.
         The terminal columns ``tension_joint_{N}_{i}`` are always included.
+    n_tendons : int, default 3
+        Tendons per set ``n`` (``i = 1..n``).
 
     Returns
     -------
@@ -93,12 +100,13 @@ def column_names(n_modules: int, *, truth: bool = True) -> list[str]:
     if n < 1:
         raise ValueError(f"n_modules must be >= 1, got {n_modules!r}")
     joints = list(range(1, n + 1)) if truth else [n]
-    return ["trajectory", "t"] + theta_columns(n) + act_columns(n) + [c for j in joints for c in joint_columns(j)]
+    tendons = act_columns(n, n_tendons) + [c for j in joints for c in joint_columns(j, n_tendons)]
+    return ["trajectory", "t"] + theta_columns(n) + tendons
 
 
-def required_columns(n: int) -> list[str]:
+def required_columns(n: int, n_tendons: int = DEFAULT_TENDONS) -> list[str]:
     """Columns every recording of ``n`` modules must have: all but the intermediate truth."""
-    return column_names(n, truth=False)
+    return column_names(n, truth=False, n_tendons=n_tendons)
 
 
 def hidden_truth_columns(columns: Sequence[str], n: int) -> list[str]:
@@ -110,9 +118,9 @@ def hidden_truth_columns(columns: Sequence[str], n: int) -> list[str]:
     return [c for c in columns if (m := TENSION_RE.match(c)) and m.group(1) == "joint" and int(m.group(2)) < n]
 
 
-def intermediate_joints(columns: Sequence[str], n: int) -> list[int]:
-    """Joints ``j < n`` whose three truth columns are all among ``columns``."""
-    return [j for j in range(1, n) if all(c in columns for c in joint_columns(j))]
+def intermediate_joints(columns: Sequence[str], n: int, n_tendons: int = DEFAULT_TENDONS) -> list[int]:
+    """Joints ``j < n`` whose truth columns (one per tendon) are all among ``columns``."""
+    return [j for j in range(1, n) if all(c in columns for c in joint_columns(j, n_tendons))]
 
 
 def module_index(column: str) -> int | None:
@@ -134,3 +142,17 @@ def infer_n_modules(columns: Sequence[str]) -> tuple[int | None, str | None]:
         if k is not None and (best is None or k > best):
             best, best_col = k, c
     return best, best_col
+
+
+def infer_n_tendons(columns: Sequence[str]) -> int | None:
+    """Largest tendon index among the actuator-side tension columns (None where there is none)."""
+    found = [int(m.group(3)) for c in columns if (m := TENSION_RE.match(c)) and m.group(1) == "act"]
+    return max(found) if found else None
+
+
+def tendon_count(robot: dict | None, columns: Sequence[str]) -> int:
+    """Tendons per set of a recording: its ``robot.n_tendons``, else its columns', else 3."""
+    given = (robot or {}).get("n_tendons")
+    if given is not None:
+        return int(given)
+    return infer_n_tendons(columns) or DEFAULT_TENDONS

@@ -41,7 +41,7 @@ def summarise(recording: Any) -> dict[str, Any]:
     ids = rec.frame["trajectory"].to_numpy()
     meta = rec.meta
     angles = rec.angles
-    joints = intermediate_joints(rec.frame.columns, rec.n_modules)
+    joints = intermediate_joints(rec.frame.columns, rec.n_modules, rec.n_tendons)
     return {
         "n_modules": rec.n_modules,
         "n_frames": rec.n_frames,

@@ -16,7 +16,7 @@ from tendon_id.errors import ConfigError
 __all__ = ["DIMENSIONS", "ANGLE_UNITS", "si_factor"]
 
 #: The SI unit each kind of signal is stored in (a unit must have its dimension).
-DIMENSIONS: dict[str, str] = {"time": "s", "angle": "rad", "tension": "N", "torque": "N*m"}
+DIMENSIONS: dict[str, str] = {"time": "s", "angle": "rad", "tension": "N", "torque": "N*m", "length": "m"}
 
 #: Units that make a dimensionless quantity an angle (pint gives angles no dimension, so
 #: ``count`` would otherwise pass for a radian).

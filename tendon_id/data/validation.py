@@ -28,13 +28,13 @@ from tendon_id.data.rules import (
     trajectory_starts,
 )
 from tendon_id.data.schema import (
-    TENDONS,
     TENSION_RE,
     THETA_RE,
     column_names,
     infer_n_modules,
     module_index,
     required_columns,
+    tendon_count,
     theta_columns,
     truth_columns,
 )
@@ -54,16 +54,20 @@ __all__ = [
 ]
 
 
-def check_numbering(columns: Sequence[str], *, source: str | None = None) -> None:
-    """Raise for a schema column numbered from 0 or with a tendon outside 1..3."""
+def check_numbering(columns: Sequence[str], n_tendons: int = 3, *, source: str | None = None) -> None:
+    """Raise for a schema column numbered from 0 or with a tendon outside ``1..n_tendons``."""
     for c in columns:
         m = THETA_RE.match(c)
         k = int(m.group(1)) if m else None
         m2 = TENSION_RE.match(c)
         if m2:
             k = int(m2.group(2))
-            if int(m2.group(3)) not in TENDONS:
-                raise RecordingError("inconsistent numbering: tendons are numbered 1..3", file=source, column=c)
+            if not 1 <= int(m2.group(3)) <= n_tendons:
+                raise RecordingError(
+                    f"inconsistent numbering: tendons are numbered 1..{n_tendons} (robot.n_tendons = {n_tendons})",
+                    file=source,
+                    column=c,
+                )
         if k == 0:
             raise RecordingError("inconsistent numbering: modules are numbered from 1", file=source, column=c)
 
@@ -115,13 +119,15 @@ def check_n_modules(columns: Sequence[str], n_modules: int | None, *, source: st
     return n
 
 
-def check_required_columns(columns: Sequence[str], n_modules: int, *, source: str | None = None) -> None:
+def check_required_columns(
+    columns: Sequence[str], n_modules: int, n_tendons: int = 3, *, source: str | None = None
+) -> None:
     """Raise for the first required column (see :func:`required_columns`) that is missing.
 
     Extra columns are fine: they are kept and ignored.
     """
     cols = list(columns)
-    for c in required_columns(n_modules):
+    for c in required_columns(n_modules, n_tendons):
         if c not in cols:
             why = "" if c in ("trajectory", "t") else f" (n_modules is {n_modules})"
             raise RecordingError(f"missing required column{why}", file=source, column=c)
@@ -216,7 +222,9 @@ def check_history_window(frame: pd.DataFrame, h: int, *, source: str | None = No
         )
 
 
-def validate(frame: pd.DataFrame, n_modules: int | None = None, *, source: str | None = None) -> None:
+def validate(
+    frame: pd.DataFrame, n_modules: int | None = None, *, source: str | None = None, n_tendons: int | None = None
+) -> None:
     """Check a normalised frame against the schema; raise on the first problem.
 
     Runs, in order: :func:`check_not_empty`, :func:`check_numbering`, :func:`check_n_modules`,
@@ -233,6 +241,8 @@ def validate(frame: pd.DataFrame, n_modules: int | None = None, *, source: str |
         ``N`` from the metadata; None takes it from the columns.
     source : str, optional
         File named in the errors.
+    n_tendons : int, optional
+        Tendons per set from the metadata's robot; None takes it from the columns.
 
     Raises
     ------
@@ -241,11 +251,12 @@ def validate(frame: pd.DataFrame, n_modules: int | None = None, *, source: str |
     """
     check_not_empty(frame, source=source)
     cols = list(frame.columns)
-    check_numbering(cols, source=source)
+    n_t = tendon_count({"n_tendons": n_tendons} if n_tendons else None, cols)
+    check_numbering(cols, n_t, source=source)
     n = check_n_modules(cols, n_modules, source=source)
-    check_required_columns(cols, n, source=source)
-    numeric = [c for c in required_columns(n) if c != "trajectory"]
-    numeric += [c for c in truth_columns(n) if c in frame.columns]
+    check_required_columns(cols, n, n_t, source=source)
+    numeric = [c for c in required_columns(n, n_t) if c != "trajectory"]
+    numeric += [c for c in truth_columns(n, n_t) if c in frame.columns]
     check_numeric(frame, numeric, source=source)
 
     ids = check_trajectory_ids(frame, source=source)

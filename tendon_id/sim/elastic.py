@@ -36,15 +36,15 @@ def transmit_elastic(theta, actuator, reset, geometry: RobotGeometry, effects: E
     ----------
     theta, actuator, reset, geometry, effects, dt :
         As for :func:`~tendon_id.sim.transmission.transmit`.
-    phi, loss : ndarray, shape (T, N-1, N, 3)
+    phi, loss : ndarray, shape (T, N-1, N, n)
         Capstan exponent [-] and tension-independent loss [N] of every guide, set and tendon
         (the exponent-stage blocks, :func:`~tendon_id.sim.transmission.guide_terms`).
 
     Returns
     -------
-    chain : ndarray, shape (T, N, N, 3)
+    chain : ndarray, shape (T, N, N, n)
         ``T[k, j, i]`` [N], NaN off the path.
-    sigma : ndarray of int8, shape (T, N-1, N, 3)
+    sigma : ndarray of int8, shape (T, N-1, N, n)
     """
     n, n_frames = geometry.n_modules, theta.shape[0]
     reset = np.array(reset, dtype=bool)
@@ -55,11 +55,12 @@ def transmit_elastic(theta, actuator, reset, geometry: RobotGeometry, effects: E
     d_length[1:] = length[1:] - length[:-1]
     d_length[reset] = 0.0
     k = np.full(n - 1, float(effects.get("stick_slip").EA) / segment_length(geometry))
-    chain = np.full((n_frames, n, n, 3), np.nan)
-    sigma = np.zeros((n_frames, n - 1, n, 3), dtype=np.int8)
+    nt = actuator.shape[2]  # tendons per set
+    chain = np.full((n_frames, n, n, nt), np.nan)
+    sigma = np.zeros((n_frames, n - 1, n, nt), dtype=np.int8)
     chain[:, 0] = actuator
     for j in range(1, n):
-        for i in range(3):
+        for i in range(nt):
             tension, sg = elastic_chain(
                 actuator[:, j, i],
                 d_length[:, :j, j, i],
@@ -79,14 +80,14 @@ def transmit_elastic(theta, actuator, reset, geometry: RobotGeometry, effects: E
 
 def _step(actuator, phi, loss, d_length, tension, branch, first, k_seg, a_lag, kappa, floor, sigma):  # pragma: no cover
     # One instant of every chain of a batch (the closed loop's plant): the compiled pass's elastic
-    # branch without its frame loop.  tension/branch/sigma: (B, N-1, N, 3) state, updated in place.
-    batch, n = actuator.shape[0], actuator.shape[1]
+    # branch without its frame loop.  tension/branch/sigma: (B, N-1, N, n) state, updated in place.
+    batch, n, nt = actuator.shape[0], actuator.shape[1], actuator.shape[2]
     scratch = np.empty((5, n - 1))
     c, k, cp, em, ep = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
     k[:] = k_seg
     for b in range(batch):
         for j in range(1, n):
-            for i in range(3):
+            for i in range(nt):
                 elastic_chain_frame(
                     actuator[b, j, i], tension[b, :j, j, i], branch[b, :j, j, i], d_length[b, :j, j, i],
                     phi[b, :j, j, i], loss[b, :j, j, i], k[:j], first, a_lag, kappa, floor,
@@ -118,13 +119,14 @@ class ElasticState:
         self.k_seg = float(effects.get("stick_slip").EA) / segment_length(geometry)
         self.a_lag = math.exp(-dt / visco.tau_v) if visco is not None else 1.0
         self.kappa = float(visco.kappa) if visco is not None else 0.0
-        self.tension = np.zeros((batch, n - 1, n, 3))
-        self.branch = np.zeros((batch, n - 1, n, 3))
-        self.sigma = np.zeros((batch, n - 1, n, 3), dtype=np.int8)
+        nt = geometry.n_tendons
+        self.tension = np.zeros((batch, n - 1, n, nt))
+        self.branch = np.zeros((batch, n - 1, n, nt))
+        self.sigma = np.zeros((batch, n - 1, n, nt), dtype=np.int8)
         self.length = None
 
     def step(self, theta: NDArray, actuator: NDArray, phi: NDArray, loss: NDArray | None) -> NDArray:
-        """Advance one instant; returns the segment tensions ``T[k+1, j, i]`` (B, N-1, N, 3) [N] (0 off the path)."""
+        """Advance one instant; returns the segment tensions ``T[k+1, j, i]`` (B, N-1, N, n) [N] (0 off the path)."""
         length = segment_path_lengths(theta, self.geometry)
         first = self.length is None
         d_length = np.zeros_like(length) if first else length - self.length

@@ -19,11 +19,11 @@ class FrictionLaw:
 
     Parameters
     ----------
-    A : tuple of 3 floats
-        Cosine coefficients ``A_i`` [-], one per tendon. Default: the paper's
-        identified ``(0.30, 0.32, 0.28)`` (Section IV-B).
-    B : tuple of 3 floats
-        Offsets ``B_i`` [-]. Default: the paper's ``(0.09, 0.08, 0.10)``.
+    A : tuple of float
+        Cosine coefficients ``A_i`` [-], one per tendon of a set (``robot.n_tendons`` of them).
+        Default: the paper's identified ``(0.30, 0.32, 0.28)`` (Section IV-B).
+    B : tuple of float
+        Offsets ``B_i`` [-], as many. Default: the paper's ``(0.09, 0.08, 0.10)``.
 
     Notes
     -----
@@ -34,14 +34,16 @@ class FrictionLaw:
     not on all of ``[0, pi]`` as the calibration constraint ``B >= |A|`` is.
     """
 
-    A: tuple[float, float, float] = (0.30, 0.32, 0.28)
-    B: tuple[float, float, float] = (0.09, 0.08, 0.10)
+    A: tuple[float, ...] = (0.30, 0.32, 0.28)
+    B: tuple[float, ...] = (0.09, 0.08, 0.10)
 
     def __post_init__(self) -> None:
         A = tuple(float(a) for a in self.A)
         B = tuple(float(b) for b in self.B)
-        if len(A) != 3 or len(B) != 3:
-            raise ConfigError("friction.A and friction.B need 3 values each (one per tendon)")
+        if len(A) < 2 or len(A) != len(B):
+            raise ConfigError(
+                f"friction.A and friction.B need one value per tendon of a set, as many each, got {len(A)} and {len(B)}"
+            )
         for i, (a, b) in enumerate(zip(A, B), start=1):
             if a + b <= 0:
                 raise ConfigError(f"friction law of tendon {i} needs mu(0) = A + B > 0, got A={a}, B={b}")

@@ -128,6 +128,7 @@ class MotionContext:
     v_max: float
     traj_index: int
     held_poses: tuple[NDArray, ...]
+    bending_axes: int = 2  # 1: a planar robot, whose steps are all towards x
 
     @property
     def held(self) -> NDArray:
@@ -182,7 +183,7 @@ def posterior(n_active: int) -> Callable:
         while path.frames < s.trajectory_frames:
             target = base.copy()
             joints = rng.choice(np.arange(first, n), size=rng.integers(1, n - first + 1), replace=False)
-            axis = rng.integers(0, 2)
+            axis = rng.integers(0, ctx.bending_axes)
             target[joints, axis] = rng.choice(s.amplitudes_deg) * DEG * rng.choice([-1.0, 1.0])
             path.move_to(target)
             path.hold(rng.uniform(*s.hold_s))

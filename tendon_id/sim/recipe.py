@@ -12,6 +12,7 @@ from pathlib import Path
 from tendon_id.checks import check_choice, check_keys
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
+from tendon_id.robot_file import resolve_robot
 from tendon_id.sim.actuation import Actuation
 from tendon_id.sim.body import Body
 from tendon_id.sim.effects import Effects
@@ -102,9 +103,21 @@ class Recipe:
             return self.protocols[name]
         return ProtocolSettings(frames=PAPER_FRAMES[name])
 
+    def _tendons_agree(self) -> Recipe:
+        """This recipe, once its friction law has one (A_i, B_i) per tendon of the robot's sets."""
+        if len(self.friction.A) != self.robot.n_tendons:
+            raise ConfigError(
+                f"[friction] A and B need one value per tendon: the robot has {self.robot.n_tendons} per set, "
+                f"A has {len(self.friction.A)}"
+            )
+        return self
+
     def robot_for(self, protocol: str) -> RobotGeometry:
-        """The robot a protocol runs on: the single-passage rig has 2 modules and one guide."""
-        return replace(self.robot, n_modules=2) if protocol == "single-passage" else self.robot
+        """The robot a protocol runs on: the single-passage rig has 2 modules and one guide (its first two sets)."""
+        if protocol != "single-passage":
+            return self.robot
+        az = self.robot.azimuths
+        return replace(self.robot, n_modules=2, azimuths=None if az is None else az[:2] if len(az) > 1 else az)
 
     def to_dict(self) -> dict:
         """Plain-JSON form (also what the dataset cache key hashes)."""
@@ -168,14 +181,14 @@ class Recipe:
                 sample_rate_hz=float(d.get("sample_rate_hz", 10.0)),
                 v_max_deg_s=float(d.get("v_max_deg_s", 8.0)),
                 session=str(d.get("session", "continuous")),
-                robot=RobotGeometry.from_dict(d.get("robot")),
+                robot=RobotGeometry.from_dict(resolve_robot(d.get("robot"), base=_folder(source), where="[robot]")),
                 friction=_build(FrictionLaw, "friction", d.get("friction")),
                 effects=effects,
                 actuation=_build(Actuation, "actuation", d.get("actuation")),
                 sensors=_build(Sensors, "sensors", d.get("sensors")),
                 protocols=protocols,
                 body=_build(Body, "body", d.get("body")),
-            )
+            )._tendons_agree()
         except ConfigError as exc:
             raise ConfigError(f"{source}: {exc}") from None
 
@@ -191,3 +204,9 @@ class Recipe:
         except tomllib.TOMLDecodeError as exc:
             raise ConfigError(f"{path}: not valid TOML ({exc})") from None
         return cls.from_dict(data, source=str(path))
+
+
+def _folder(source: str) -> Path | None:
+    """The folder of the recipe file ``source`` (a robot file's relative path is read from there)."""
+    p = Path(source)
+    return p.parent if p.suffix == ".toml" else None

@@ -57,34 +57,35 @@ class SensorSignals:
     truth: dict = field(default_factory=dict)
 
 
-def _explicit(name: str, value, n: int) -> NDArray[np.float64]:
+def _explicit(name: str, value, n: int, nt: int) -> NDArray[np.float64]:
     arr = np.asarray(value, dtype=float)
     if arr.ndim == 0:
-        return np.full((n, 3), float(arr))
-    if arr.shape != (n, 3):
+        return np.full((n, nt), float(arr))
+    if arr.shape != (n, nt):
         raise ConfigError(
-            f"actuator_cells.{name} needs one row of 3 values per set ({n} rows for this robot), got shape {arr.shape}"
+            f"actuator_cells.{name} needs one row of {nt} values per set ({n} rows for this robot), "
+            f"got shape {arr.shape}"
         )
     return arr
 
 
-def cell_errors(seed: int, n_modules: int, cells: ActuatorCells) -> tuple[NDArray, NDArray]:
-    """Gain error [-] and offset [N] of each actuator-side cell, each shape (N, 3) (set ``j``, tendon ``i``).
+def cell_errors(seed: int, n_modules: int, cells: ActuatorCells, n_tendons: int = 3) -> tuple[NDArray, NDArray]:
+    """Gain error [-] and offset [N] of each actuator-side cell, each shape (N, n) (set ``j``, tendon ``i``).
 
     Explicit values of ``cells`` are taken as given; the others are drawn from ``seed`` alone,
     one independent stream for the gains and one for the offsets, filled set by set: the
     cells of a robot with fewer modules are the first rows of a longer one's, and every protocol
     of a seed reads through the same cells.
     """
-    n = int(n_modules)
+    n, nt = int(n_modules), int(n_tendons)
     if cells.gain is not None:
-        gain = _explicit("gain", cells.gain, n)
+        gain = _explicit("gain", cells.gain, n, nt)
     else:
-        gain = cells.gain_sd * np.random.default_rng([int(seed), _CELLS_STREAM, 0]).standard_normal((n, 3))
+        gain = cells.gain_sd * np.random.default_rng([int(seed), _CELLS_STREAM, 0]).standard_normal((n, nt))
     if cells.offset is not None:
-        offset = _explicit("offset", cells.offset, n)
+        offset = _explicit("offset", cells.offset, n, nt)
     else:
-        offset = cells.offset_sd * np.random.default_rng([int(seed), _CELLS_STREAM, 1]).standard_normal((n, 3))
+        offset = cells.offset_sd * np.random.default_rng([int(seed), _CELLS_STREAM, 1]).standard_normal((n, nt))
     if np.any(gain <= -1.0):
         raise ConfigError("actuator_cells: a gain error of -1 or below reads no load; lower gain_sd")
     return gain, offset
@@ -132,7 +133,7 @@ def sensor_signals(
         actuator = _skewed(actuator, skew.actuator_s, dt, starts)
         terminal = _skewed(terminal, skew.terminal_s, dt, starts)
     if "actuator_cells" in effects:
-        gain, offset = cell_errors(seed, actuator.shape[1], effects.get("actuator_cells"))
+        gain, offset = cell_errors(seed, actuator.shape[1], effects.get("actuator_cells"), actuator.shape[2])
         actuator = gain_offset(actuator, gain, offset)
         truth["actuator_cells"] = {"gain": gain.tolist(), "offset": offset.tolist()}
     return SensorSignals(theta=theta, actuator=actuator, terminal=terminal, truth=truth)

@@ -57,8 +57,8 @@ class SensorBias:
             raise ConfigError(f"sensor_bias.warm_up_s must be a positive time in s, got {self.warm_up_s!r}")
 
 
-def _cell_values(name: str, value) -> float | tuple[tuple[float, float, float], ...] | None:
-    """An explicit per-cell setting: None, one number for every cell, or rows of 3 (set j, tendon i)."""
+def _cell_values(name: str, value) -> float | tuple[tuple[float, ...], ...] | None:
+    """An explicit per-cell setting: None, one number for every cell, or rows of n (set j, tendon i)."""
     if value is None:
         return None
     try:
@@ -67,13 +67,16 @@ def _cell_values(name: str, value) -> float | tuple[tuple[float, float, float], 
             finite = bool(np.isfinite(out))
         else:
             out = tuple(tuple(float(v) for v in row) for row in value)
-            finite = bool(np.all(np.isfinite(out))) and all(len(row) == 3 for row in out) and len(out) > 0
+            finite = bool(np.all(np.isfinite(out))) and len(out) > 0 and all(len(row) == len(out[0]) for row in out)
     except (TypeError, ValueError):
         raise ConfigError(
-            f"actuator_cells.{name} must be a number or a list of rows of 3 numbers (set, tendon), got {value!r}"
+            f"actuator_cells.{name} must be a number or a list of rows of numbers, one per tendon (set, tendon), "
+            f"got {value!r}"
         ) from None
     if not finite:
-        raise ConfigError(f"actuator_cells.{name} needs finite values in rows of 3 (one per tendon), got {value!r}")
+        raise ConfigError(
+            f"actuator_cells.{name} needs finite values in rows of equal length (one per tendon), got {value!r}"
+        )
     return out
 
 

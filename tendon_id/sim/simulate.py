@@ -157,10 +157,11 @@ def simulate(
 
     thetas, acts, ids = [], [], []
     for ti in progress_bar(range(n_traj), desc=f"simulate {protocol}", enable=progress):
-        ctx = MotionContext(
-            n, type(settings)(**{**settings.__dict__, "trajectory_frames": lengths[ti]}), dt, v_max, ti, tuple(poses)
-        )
+        frames = type(settings)(**{**settings.__dict__, "trajectory_frames": lengths[ti]})
+        ctx = MotionContext(n, frames, dt, v_max, ti, tuple(poses), geometry.bending_axes)
         theta = PROTOCOLS[protocol](_rng(seed, protocol, ti, _STREAM_MOTION), ctx)
+        if geometry.bending_axes == 1:
+            theta[..., 1] = 0.0  # a hinge follows only the part of a command in its plane (towards x)
         trng = _rng(seed, protocol, ti, _STREAM_TENSION)
         level = trng.uniform(*settings.pretension_n)
         thetas.append(theta)

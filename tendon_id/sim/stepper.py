@@ -99,16 +99,17 @@ class TransmissionStepper:
     def reset(self) -> None:
         """The next step starts from freshly pretensioned tendons: forward slip, relaxed lag."""
         n = self.geometry.n_modules
-        self.play = np.zeros((self.batch, n - 1, n, 3))  # play output per guide [ln N]
-        self.z = np.zeros((self.batch, n - 1, n, 3))  # viscoelastic relaxing part [N]
+        nt = self.geometry.n_tendons
+        self.play = np.zeros((self.batch, n - 1, n, nt))  # play output per guide [ln N]
+        self.z = np.zeros((self.batch, n - 1, n, nt))  # viscoelastic relaxing part [N]
         self.lo, self.hi = np.zeros_like(self.play), np.zeros_like(self.play)  # the play's edges [ln N]
         # set j passes guides 1..j-1: guide index g carries set indices g+1.. (docs/guide/problem.rst)
         self._on_path = (np.arange(n)[None, :] > np.arange(n - 1)[:, None]).astype(np.int8)[None, :, :, None]
         self._crossing = (np.arange(n)[None, :] >= np.arange(n)[:, None])[None, :, :, None]  # set j crosses joint k
         # T[k, j, i] of the last step: the elastic chain's tensions, or the play chain's logs (-inf off the
         # path) turned into tensions only when read, since the earlier own-set plant never reads them.
-        self._chain = np.zeros((self.batch, n, n, 3))
-        self._log_chain = np.full((self.batch, n, n, 3), -np.inf)
+        self._chain = np.zeros((self.batch, n, n, nt))
+        self._log_chain = np.full((self.batch, n, n, nt), -np.inf)
         self.started = False
         self.slid = np.zeros((self.batch, n - 1))  # friction_drift: distance slid through each guide [m]
         self.theta_prev = None
@@ -119,7 +120,7 @@ class TransmissionStepper:
 
     @property
     def chain(self) -> NDArray:
-        """``T[k, j, i]`` [N] of the last step, shape (B, N, N, 3), zero where ``k > j``."""
+        """``T[k, j, i]`` [N] of the last step, shape (B, N, N, n), zero where ``k > j``."""
         if self._chain is None:
             self._chain = np.exp(self._log_chain)
             self._chain[:, 0] = self._actuator  # exactly, not exp(log(.))
@@ -132,23 +133,24 @@ class TransmissionStepper:
         ----------
         theta : ndarray, shape (B, N, 2)
             True joint angles [rad].
-        actuator : ndarray, shape (B, N, 3)
+        actuator : ndarray, shape (B, N, n)
             True actuator-side tensions ``T[1, j, i]`` [N], positive.
 
         Returns
         -------
-        joint_side : ndarray, shape (B, N, 3)
+        joint_side : ndarray, shape (B, N, n)
             ``T[j, j, i]`` [N].
-        sigma : ndarray of int8, shape (B, N-1, N, 3)
+        sigma : ndarray of int8, shape (B, N-1, N, n)
             Slip state per guide, set and tendon (0 where the set does not pass the guide).
 
         The whole chain ``T[k, j, i]`` of this instant, every tendon across every joint it crosses,
-        is kept in :attr:`chain`, shape (B, N, N, 3) [N], zero where ``k > j``.
+        is kept in :attr:`chain`, shape (B, N, N, n) [N], zero where ``k > j``.
         """
         n = self.geometry.n_modules
-        if theta.shape != (self.batch, n, 2) or actuator.shape != (self.batch, n, 3):
-            raise ConfigError(f"step needs theta ({self.batch}, {n}, 2) and actuator ({self.batch}, {n}, 3)")
-        alpha = GuideWraps(theta, self.geometry, self.effects).every()  # (B, N-1, N, 3) or broadcastable
+        nt = self.geometry.n_tendons
+        if theta.shape != (self.batch, n, 2) or actuator.shape != (self.batch, n, nt):
+            raise ConfigError(f"step needs theta ({self.batch}, {n}, 2) and actuator ({self.batch}, {n}, {nt})")
+        alpha = GuideWraps(theta, self.geometry, self.effects).every()  # (B, N-1, N, n) or broadcastable
         wear = None if self.wear is None else self.wear[:, None, None]
         if self.drift is not None:  # tendon_id.sim.drift, one step at a time: the batch is the time axis there
             if self.theta_prev is not None:
@@ -157,7 +159,7 @@ class TransmissionStepper:
             wear = drift_at(self.slid, self.drift)[:, :, None, None] * (1.0 if wear is None else wear[None])
         self.theta_prev = np.array(theta, dtype=float)
         phi = guide_exponent(guide_mu(self.friction, alpha, "a guide"), alpha, self.geometry, self.effects, wear)
-        phi = np.broadcast_to(phi, (self.batch, n - 1, n, 3))
+        phi = np.broadcast_to(phi, (self.batch, n - 1, n, nt))
         loss = bending_loss(np.broadcast_to(alpha, phi.shape), self.bend) if self.bend > 0 else None
         if self.elastic:
             seg = self.chain_state.step(theta, actuator, phi, None if loss is None else loss)

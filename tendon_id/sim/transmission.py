@@ -99,14 +99,14 @@ class GuideWraps:
             self.R = joint_rotation(theta)
             self.ux, self.uy = geometry.hole_radius * np.cos(psi), geometry.hole_radius * np.sin(psi)
         elif self.model == "projected":
-            self.projected = projected_wrap(theta, geometry, psi)  # (T, N-1 guides, N sets, 3), alpha_0 included
+            self.projected = projected_wrap(theta, geometry, psi)  # (T, N-1 guides, N sets, n), alpha_0 included
 
     def at(self, g: int) -> NDArray:
-        """Wrap of guide ``g + 1`` for sets ``g + 2 .. N``, broadcastable to (T, sets, 3) [rad]."""
+        """Wrap of guide ``g + 1`` for sets ``g + 2 .. N``, broadcastable to (T, sets, n) [rad]."""
         return self._wraps(slice(g, g + 1), slice(g + 1, self.geometry.n_modules))[:, 0]
 
     def every(self) -> NDArray:
-        """Wrap of every guide for every set, broadcastable to (T, N-1, N, 3) [rad].
+        """Wrap of every guide for every set, broadcastable to (T, N-1, N, n) [rad].
 
         Sets that do not pass a guide get a wrap too (the stepper masks them): one array
         operation for the whole chain instead of one per guide.
@@ -184,7 +184,7 @@ def transmit(
     ----------
     theta : ndarray, shape (T, N, 2)
         True joint angles [rad].
-    actuator : ndarray, shape (T, N, 3)
+    actuator : ndarray, shape (T, N, n)
         True actuator-side tensions ``T[1, j, i]`` [N], all positive.
     reset : ndarray of bool, shape (T,)
         True on each trajectory's first frame (hysteresis and lag restart).
@@ -269,7 +269,7 @@ def _transmit_compiled(
 def guide_terms(
     g: int, wraps: GuideWraps, friction: FrictionLaw, effects: Effects, cum_rate, wear
 ) -> tuple[NDArray, NDArray]:
-    """Wrap [rad] and capstan exponent [-] of guide index ``g`` for the sets beyond it, each (T, sets, 3).
+    """Wrap [rad] and capstan exponent [-] of guide index ``g`` for the sets beyond it, each (T, sets, n).
 
     The exponent-stage blocks of :mod:`friction_models` in the order of paper Eqs. (4)-(6):
     the friction law, its growth with sliding speed (``velocity_friction``; ``cum_rate`` is
@@ -287,7 +287,7 @@ def guide_terms(
         mu = velocity_dependent_mu(mu, speed, vf.v_ref, vf.stribeck_drop, vf.v_stribeck)
     w = None if wear is None else (wear[g] if wear.ndim == 1 else wear[:, g, None, None])
     ph = guide_exponent(mu, alpha, geometry, effects, w)
-    shape = (wraps.wrap.shape[0], geometry.n_modules - g - 1, 3)
+    shape = (wraps.wrap.shape[0], geometry.n_modules - g - 1, geometry.n_tendons)
     return np.broadcast_to(alpha, shape), np.broadcast_to(ph, shape)
 
 
@@ -297,8 +297,9 @@ def _transmit_elastic(theta, actuator, reset, geometry, friction, effects, dt, w
     wraps = GuideWraps(theta, geometry, effects)
     cum_rate = backward_rate(np.cumsum(theta, axis=1), reset, dt) if "velocity_friction" in effects else None
     bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
-    phi = np.full((n_frames, n - 1, n, 3), np.nan)
-    loss = np.zeros((n_frames, n - 1, n, 3))
+    nt = geometry.n_tendons
+    phi = np.full((n_frames, n - 1, n, nt), np.nan)
+    loss = np.zeros((n_frames, n - 1, n, nt))
     for g in range(n - 1):
         alpha, phi[:, g, g + 1 :] = guide_terms(g, wraps, friction, effects, cum_rate, wear)
         loss[:, g, g + 1 :] = bend * alpha
@@ -322,13 +323,14 @@ def _transmit_composed(theta, actuator, reset, geometry, friction, effects, dt, 
     bend = effects.get("bending_stiffness").dT_b if "bending_stiffness" in effects else 0.0
     visco = effects.get("viscoelastic") if "viscoelastic" in effects else None
 
-    chain = np.full((n_frames, n, n, 3), np.nan)
-    sigma = np.zeros((n_frames, n - 1, n, 3), dtype=np.int8)
-    phi_all = np.full((n_frames, n - 1, n, 3), np.nan)
-    log_t = np.log(actuator)  # (T, N sets, 3): ln T[k, j] for the sets still on the path
+    nt = geometry.n_tendons
+    chain = np.full((n_frames, n, n, nt), np.nan)
+    sigma = np.zeros((n_frames, n - 1, n, nt), dtype=np.int8)
+    phi_all = np.full((n_frames, n - 1, n, nt), np.nan)
+    log_t = np.log(actuator)  # (T, N sets, n): ln T[k, j] for the sets still on the path
     chain[:, 0] = actuator
     # Guide k = g + 1 carries sets j = g + 2 .. N (index g + 1 ..).  Its quantities are built
-    # guide by guide, so memory stays at (T, sets, 3) however long the chain.
+    # guide by guide, so memory stays at (T, sets, n) however long the chain.
     for g in range(n - 1):
         on = slice(g + 1, n)
         alpha, ph = guide_terms(g, wraps, friction, effects, cum_rate, wear)

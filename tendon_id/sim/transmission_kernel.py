@@ -2,7 +2,7 @@
 
 :func:`~tendon_id.sim.transmission.transmit` composes the physics from blocks of
 :mod:`friction_models`, one array operation per block and guide: about twenty passes over
-``(T, sets, 3)`` arrays per guide, each paying a transcendental function per element.  This
+``(T, sets, n)`` arrays per guide, each paying a transcendental function per element.  This
 module runs the same physics frame by frame in one loop compiled by numba (Lam, Pitrou &
 Seibert, LLVM-HPC 2015), where every quantity of a guide is used while it is in a register.
 It is what makes a million frames a matter of seconds (the load check of :doc:`/guide/benchmarks`); the composed
@@ -83,14 +83,15 @@ def _pass(
     slip, slide_threshold, bend, floor, visco, a_lag, kappa, k_seg,
     chain, sigma, phi, bad_alpha,
 ):  # fmt: skip  # pragma: no cover - compiled
-    n_frames, n = actuator.shape[0], actuator.shape[1]
+    n_frames, n, nt = actuator.shape[0], actuator.shape[1], actuator.shape[2]  # nt: tendons per set
     R = np.empty((n, 9))
-    play = np.zeros((n - 1, n, 3))  # the play operator's output per guide [N] (elastic: segment tensions)
-    z = np.zeros((n - 1, n, 3))  # the Zener element's relaxing part [N] (elastic: the Maxwell branch's force)
-    tension = np.empty((n, 3))
+    play = np.zeros((n - 1, n, nt))  # the play operator's output per guide [N] (elastic: segment tensions)
+    z = np.zeros((n - 1, n, nt))  # the Zener element's relaxing part [N] (elastic: the Maxwell branch's force)
+    tension = np.empty((n, nt))
     elastic = slip == SLIP_ELASTIC
     m = n - 1 if elastic else 0  # the elastic chain's per-frame buffers: exponent, loss, length change, length
-    phi_b, loss_b, dl_b, len_prev = np.zeros((m, n, 3)), np.zeros((m, n, 3)), np.zeros((m, n, 3)), np.zeros((m, n, 3))
+    phi_b, loss_b = np.zeros((m, n, nt)), np.zeros((m, n, nt))
+    dl_b, len_prev = np.zeros((m, n, nt)), np.zeros((m, n, nt))
     scratch = np.empty((5, m))
     cc, kk, cp, em, ep = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
     sg_s = np.zeros(m, dtype=np.int8)
@@ -109,11 +110,11 @@ def _pass(
                 R[m, 3], R[m, 4], R[m, 5] = 0.0, cb, sb
                 R[m, 6], R[m, 7], R[m, 8] = -sa, -ca * sb, ca * cb
         for j in range(n):
-            for i in range(3):
+            for i in range(nt):
                 tension[j, i] = actuator[t, j, i]
         if k >= 0:  # off the path (set j does not reach guide g): NaN, and no slip state
             for j in range(n):
-                for i in range(3):
+                for i in range(nt):
                     chain[k, 0, j, i] = actuator[t, j, i]
                     for g in range(j + 1, n):
                         chain[k, g, j, i] = np.nan
@@ -123,7 +124,7 @@ def _pass(
                             phi[k, g, j, i] = np.nan
         for g in range(n - 1):
             for j in range(g + 1, n):
-                for i in range(3):
+                for i in range(nt):
                     r2, z2 = 0.0, 0.0
                     if wrap_mode == WRAP_EXACT or elastic:
                         r2, z2 = _turn_out(R, g + 1, ux[j, i], uy[j, i], h)
@@ -140,7 +141,7 @@ def _pass(
                             cos_alpha = (re * cos_a0 - im * sin_a0) / math.sqrt(re * re + im * im)
                         else:
                             alpha, cos_alpha = math.pi, -1.0
-                    else:  # given (T, N-1, 1 or N, 1 or 3): broadcast by index
+                    else:  # given (T, N-1, 1 or N, 1 or n): broadcast by index
                         alpha = alpha_given[t, g, j if wide else 0, i if deep else 0]
                         cos_alpha = math.cos(alpha)
                     mu = A[i] * cos_alpha + B[i]  # paper Eq. (4)
@@ -203,7 +204,7 @@ def _pass(
                             phi[k, g, j, i] = p
         if elastic:  # each tendon's chain, its state in play (tensions) and z (branches), in place
             for j in range(1, n):
-                for i in range(3):
+                for i in range(nt):
                     elastic_chain_frame(
                         actuator[t, j, i], play[:j, j, i], z[:j, j, i], dl_b[:j, j, i], phi_b[:j, j, i],
                         loss_b[:j, j, i], kk[:j], first, a_lag, kappa if visco else 0.0, floor,
@@ -231,7 +232,7 @@ def transmit_compiled(
     ----------
     theta, actuator, reset, geometry, friction, effects, dt, keep, with_phi :
         As for ``transmit``.
-    wraps : ndarray, shape (T, N-1, 1 or N, 1 or 3), or None
+    wraps : ndarray, shape (T, N-1, 1 or N, 1 or n), or None
         The wraps of the recipe's wrap model [rad]; None for the exact turns, which the pass
         computes itself.
     wear : ndarray, shape (N-1,) or (T, N-1), or None
@@ -240,13 +241,13 @@ def transmit_compiled(
     Returns
     -------
     dict
-        ``chain`` (K, N, N, 3) [N], ``sigma`` (K, N-1, N, 3), ``phi`` (K or 0, N-1, N, 3) of the
+        ``chain`` (K, N, N, n) [N], ``sigma`` (K, N-1, N, n), ``phi`` (K or 0, N-1, N, n) of the
         K kept frames, and ``bad_alpha`` (N-1,): per guide, the largest wrap [rad] where the
         friction law was negative (-inf where it never was).
     """
     if not COMPILED:  # pragma: no cover
         raise RuntimeError("the compiled transmission needs numba")
-    n = geometry.n_modules
+    n, nt = geometry.n_modules, geometry.n_tendons
     theta = np.ascontiguousarray(theta, dtype=float)
     restart = np.array(reset, dtype=bool)
     restart[0] = True  # frame 0 starts taut, as the play operator and the lag do
@@ -256,9 +257,9 @@ def transmit_compiled(
     vf, visco = effects.get("velocity_friction"), effects.get("viscoelastic")
     k = int(kept.sum())
     out = {
-        "chain": np.empty((k, n, n, 3)),
-        "sigma": np.empty((k, n - 1, n, 3), dtype=np.int8),
-        "phi": np.empty((k if with_phi else 0, n - 1, n, 3)),
+        "chain": np.empty((k, n, n, nt)),
+        "sigma": np.empty((k, n - 1, n, nt), dtype=np.int8),
+        "phi": np.empty((k if with_phi else 0, n - 1, n, nt)),
         "bad_alpha": np.full(n - 1, -np.inf),
     }
     needs_rate = "velocity_friction" in effects or (ss is not None and ss.driver == "motion")

@@ -41,7 +41,7 @@ def _starts(rec):
     [
         (lambda: ActuatorCells(gain_sd=-0.1), "actuator_cells.gain_sd"),
         (lambda: ActuatorCells(offset_sd=float("inf")), "actuator_cells.offset_sd"),
-        (lambda: ActuatorCells(gain=[[0.1, 0.2]]), "actuator_cells.gain"),
+        (lambda: ActuatorCells(gain=[[0.1, 0.2], [0.1]]), "actuator_cells.gain"),
         (lambda: ActuatorCells(offset="x"), "actuator_cells.offset"),
         (lambda: ActuatorCells(gain=-1.5), "actuator_cells.gain"),
         (lambda: ClockSkew(terminal_s=1.5), "clock_skew.terminal_s"),
