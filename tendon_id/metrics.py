@@ -13,8 +13,8 @@ def tendon_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float]:
 
     Parameters
     ----------
-    pred, true : array_like, shape (T, 3)
-        Estimated and reference tensions [N] of the three tendons.
+    pred, true : array_like, shape (T, n)
+        Estimated and reference tensions [N] of a set's ``n`` tendons.
 
     Returns
     -------
@@ -27,7 +27,7 @@ def tendon_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float]:
     p = np.asarray(pred, dtype=float)
     y = np.asarray(true, dtype=float)
     if p.shape != y.shape or p.ndim != 2:
-        raise ValueError(f"pred and true must both be (T, 3); got {p.shape} and {y.shape}")
+        raise ValueError(f"pred and true must both be (T, n); got {p.shape} and {y.shape}")
     err = p - y
     rmse = np.sqrt(np.mean(err**2, axis=0))
     sst = np.sum((y - y.mean(axis=0)) ** 2, axis=0)

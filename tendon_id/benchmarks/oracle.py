@@ -84,7 +84,9 @@ def oracle_block(name: str, effects: Effects, robot=None, sensor_truth: dict | N
         if cells is None:
             raise ConfigError("the actuator cells' drawn errors are the recording's sensor_truth: pass it")
         gain, offset = cells["gain"][-1], cells["offset"][-1]  # the terminal set's cells
-        return cls(**{f"gain_{i + 1}": gain[i] for i in range(3)}, **{f"offset_{i + 1}": offset[i] for i in range(3)})
+        m = len(gain)  # tendons per set
+        cells = {**{f"gain_{i + 1}": gain[i] for i in range(m)}, **{f"offset_{i + 1}": offset[i] for i in range(m)}}
+        return cls(n_tendons=m, **cells)
     if robot is None:
         raise ConfigError("the contact block's true clearance is the simulated robot's alpha_c: pass robot")
     return cls(alpha_c=robot.alpha_c, gate=p.gate)  # contact

@@ -114,7 +114,9 @@ def _score_test(model, rec) -> tuple[dict, dict | None]:
     if truth is None or n <= 2:
         return terminal, None
     inner = slice(1, n - 1)
-    return terminal, tendon_metrics(pred[:, inner].reshape(-1, 3), truth[:, inner].reshape(-1, 3))
+    return terminal, tendon_metrics(
+        pred[:, inner].reshape(-1, pred.shape[2]), truth[:, inner].reshape(-1, pred.shape[2])
+    )
 
 
 def sweep_job(recipe: str, seed: int, preset: str, parameter: str, value) -> dict:

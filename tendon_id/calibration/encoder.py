@@ -43,7 +43,7 @@ def encoder_runs(angles: NDArray) -> NDArray[np.int64]:
 
 
 def encoder_covariance(model, inputs, encoder_step: float, *, n_draws: int = 64, seed: int = 0) -> NDArray[np.float64]:
-    """Covariance of the law from encoder quantisation, per tendon, shape (3, p, p).
+    """Covariance of the law from encoder quantisation, per tendon, shape (n, p, p) for n tendons per set.
 
     Refits the smooth surrogate of ``model`` (a capstan model: its law and exponent blocks,
     :meth:`~tendon_id.zoo.capstan.CapstanModel.smooth_part`) on the angles of ``inputs``
@@ -62,7 +62,10 @@ def encoder_covariance(model, inputs, encoder_step: float, *, n_draws: int = 64,
             surrogate, dataclasses.replace(inputs, angles=inputs.angles + offset[runs]), values=values
         )
         fits.append(
-            [constrained_lstsq(shifted.design, shifted.log_drop[:, i], shifted.layout, 1e-10).x for i in range(3)]
+            [
+                constrained_lstsq(shifted.design, shifted.log_drop[:, i], shifted.layout, 1e-10).x
+                for i in range(shifted.log_drop.shape[1])
+            ]
         )
-    fits = np.array(fits)  # (n_draws, 3, p)
-    return np.stack([np.atleast_2d(np.cov(fits[:, i].T)) for i in range(3)])
+    fits = np.array(fits)  # (n_draws, n, p)
+    return np.stack([np.atleast_2d(np.cov(fits[:, i].T)) for i in range(fits.shape[1])])

@@ -74,7 +74,7 @@ class CalibrationResult:
 
     Attributes
     ----------
-    A, B : ndarray, shape (G, 3)
+    A, B : ndarray, shape (G, n)
         Fitted law (``B`` is mu for the constant law, ``A`` zero) [-].
     block_values : dict
         Fitted free block parameters.
@@ -154,7 +154,7 @@ def _starts(
 def _fit_per_tendon(problem: LawProblem, smooth: NDArray, rng: np.random.Generator) -> tuple[NDArray, list, int, float]:
     """Nonsmooth law without free block parameters: the tendons are independent, so each is fitted on its own.
 
-    Multi-start COBYLA in the free box coordinates ``(mu0, r)``.  Returns the law (p, 3), the
+    Multi-start COBYLA in the free box coordinates ``(mu0, r)``.  Returns the law (p, n) for n tendons per set, the
     stop reasons, the evaluations and the summed squared log error.
     """
     model, inputs, layout, keep, values = problem.model, problem.inputs, problem.layout, problem.keep, problem.values
@@ -165,7 +165,7 @@ def _fit_per_tendon(problem: LawProblem, smooth: NDArray, rng: np.random.Generat
     last = np.array([inputs.n_modules - 1])
     zlb, zub = layout.free_bounds()
     smooth_first = not any(b.stage == "propagate" for b in model.block_objects)
-    for i in range(3):
+    for i in range(inputs.n_tendons):
         # Fixed: no free block parameters, so the law-free part of the exponent is computed once.
         terms = model.exponent_terms(inputs, values, sets=last, tendons=np.array([i]))
 
@@ -200,12 +200,12 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     """Free block parameters couple the tendons: one joint fit of every law and the block parameters.
 
     The laws are fitted in the free box coordinates, the block parameters within their
-    bounds.  Returns the law (p, 3), the block values, the stop reason, the evaluations
+    bounds.  Returns the law (p, n), the block values, the stop reason, the evaluations
     (the base fit's included) and the squared log error.
     """
     model, inputs, layout, keep = problem.model, problem.inputs, problem.layout, problem.keep
     free = model.free_parameters()
-    p = layout.size
+    p, m = layout.size, inputs.n_tendons  # law parameters per tendon, tendons per set
     names = [(b, q) for b, q, _, _ in free]
     blo = np.array([bd[0] for _, _, bd, _ in free])
     bhi = np.array([bd[1] for _, _, bd, _ in free])
@@ -213,9 +213,9 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     log_label = np.log(inputs.terminal)
 
     def unpack(z):
-        th = np.stack([layout.from_free(z[i * p : (i + 1) * p]) for i in range(3)], axis=1)  # (p, 3)
+        th = np.stack([layout.from_free(z[i * p : (i + 1) * p]) for i in range(m)], axis=1)  # (p, m)
         vals = {k: dict(v) for k, v in problem.values.items()}
-        for (bn, q), v in zip(names, z[3 * p :]):
+        for (bn, q), v in zip(names, z[m * p :]):
             vals[bn][q] = float(v)
         A, B = layout.split(th)
         return A, B, vals
@@ -244,14 +244,14 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     start_values, base_fit = starts[k], fits[k]
     geo_evals += sum(f.n_eval for f in fits) - base_fit.n_eval
     b0 = np.array([start_values[b][q] for b, q in names])
-    theta = np.stack([layout.join(base_fit.A[:, i], base_fit.B[:, i]) for i in range(3)], axis=1)
+    theta = np.stack([layout.join(base_fit.A[:, i], base_fit.B[:, i]) for i in range(m)], axis=1)
     starts = int(model.n_starts)
 
-    def free0(th3):
-        return np.concatenate([layout.to_free(th3[:, i]) for i in range(3)])
+    def free0(th):
+        return np.concatenate([layout.to_free(th[:, i]) for i in range(m)])
 
     g = layout.n_groups
-    scan = [np.r_[free0(np.tile(layout.join(np.zeros(g), np.full(g, mu))[:, None], 3)), b0] for mu in MU0_GRID]
+    scan = [np.r_[free0(np.tile(layout.join(np.zeros(g), np.full(g, mu))[:, None], m)), b0] for mu in MU0_GRID]
     scan_start = min(scan, key=sse)
     # The smooth law with the blocks at their initial (usually neutral) values comes first:
     # the augmented model then starts from the base model's fit and can only improve on it.
@@ -261,8 +261,8 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
         # own, at every candidate geometry, so the joint fit only polishes the best of them.
         z_starts, starts = z_starts[:1], 1
     while len(z_starts) < starts:
-        around = [layout.from_free(scan_start[i * p : (i + 1) * p]) for i in range(3)]
-        law = np.stack([layout.random_feasible(rng, around[i]) for i in range(3)], axis=1)
+        around = [layout.from_free(scan_start[i * p : (i + 1) * p]) for i in range(m)]
+        law = np.stack([layout.random_feasible(rng, around[i]) for i in range(m)], axis=1)
         z_starts.append(np.r_[free0(law), rng.uniform(blo, bhi)])
     # COBYLA's trust region only shrinks from its first step: a block parameter starting at its
     # neutral 0 steps by its typical magnitude (the block's probe), not by a thousandth of its range.
@@ -270,11 +270,11 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     probes = {b.name: b.probe for b in model.block_objects if not b.geometric}
     typical = np.array([_typical(probes.get(bn, {}).get(q)) for bn, q in names], dtype=float).reshape(-1)
     typical = np.minimum(typical, 0.25 * (bhi - blo))  # 0 where the block gives none
-    lb, ub = np.r_[np.tile(zlb, 3), blo], np.r_[np.tile(zub, 3), bhi]
+    lb, ub = np.r_[np.tile(zlb, m), blo], np.r_[np.tile(zub, m), bhi]
 
     def first_step(z):
         step = np.maximum(0.1 * np.abs(z), 1e-3 * (ub - lb))  # minimize's default
-        step[3 * p :] = np.maximum(step[3 * p :], typical)
+        step[m * p :] = np.maximum(step[m * p :], typical)
         return step
 
     outs = [
@@ -292,7 +292,7 @@ def _fit_joint(problem: LawProblem, rng: np.random.Generator) -> tuple[NDArray, 
     ]
     best = min(outs, key=lambda o: o.f)
     A, B, vals = unpack(best.x)
-    theta = np.stack([layout.join(A[:, i], B[:, i]) for i in range(3)], axis=1)
+    theta = np.stack([layout.join(A[:, i], B[:, i]) for i in range(m)], axis=1)
     return theta, vals, best.status, geo_evals + base_fit.n_eval + sum(o.n_eval for o in outs), best.f
 
 
@@ -329,8 +329,9 @@ def calibrate(problem: LawProblem) -> CalibrationResult:
     smooth = law_fits(problem)
     status = [o.status for o in smooth]
     n_eval += sum(o.n_eval for o in smooth)
-    theta = np.stack([o.x for o in smooth], axis=1)  # (p, 3)
-    n_obs = int(keep.sum()) * 3
+    theta = np.stack([o.x for o in smooth], axis=1)  # (p, n): one law per tendon
+    m = theta.shape[1]
+    n_obs = int(keep.sum()) * m
     values = problem.values
     rng = np.random.default_rng(model.seed)
 
@@ -348,12 +349,12 @@ def calibrate(problem: LawProblem) -> CalibrationResult:
         n_eval += evals
         loss, starts = sse_sum / n_obs, int(model.n_starts)
 
-    A = np.stack([layout.split(theta[:, i])[0] for i in range(3)], axis=1)
-    B = np.stack([layout.split(theta[:, i])[1] for i in range(3)], axis=1)
+    A = np.stack([layout.split(theta[:, i])[0] for i in range(m)], axis=1)
+    B = np.stack([layout.split(theta[:, i])[1] for i in range(m)], axis=1)
     if model.mu_law == "affine-cosine":
         # Optimisers stop within CTOL of the edge B = |A|; land exactly on the feasible side.
         B = np.maximum(B, np.abs(A))
-    if not all(layout.feasible(layout.join(A[:, i], B[:, i]), CTOL) for i in range(3)):
+    if not all(layout.feasible(layout.join(A[:, i], B[:, i]), CTOL) for i in range(m)):
         raise CalibrationError("calibration ended outside the feasible set B >= |A|; this is a bug, please report it")
     block_values: dict[str, dict[str, float]] = {}
     for b, q, _, _ in free:

@@ -69,7 +69,7 @@ MIN_SLIP_FRAMES = 20
 def law_fits(problem: LawProblem) -> list[Outcome]:
     """Each tendon's constrained least-squares law on ``problem``'s design and kept frames (the smooth fit)."""
     X, Y, keep = problem.design, problem.log_drop, problem.keep
-    return [constrained_lstsq(X[keep], Y[keep, i], problem.layout, 1e-10) for i in range(3)]
+    return [constrained_lstsq(X[keep], Y[keep, i], problem.layout, 1e-10) for i in range(Y.shape[1])]
 
 
 class TiedLeastSquares:

@@ -52,13 +52,13 @@ __all__ = ["PosteriorResult", "law_likelihood", "parameter_names", "to_theta"]
 
 def parameter_names(model) -> list[str]:
     """Names of the sampled parameters: ``A_i``, ``B_i`` (``A_k<g>_i`` per guide), then ``log_sigma_i``."""
-    g = model.A_.shape[0]
+    g, m = model.A_.shape  # guide groups, tendons per set
     law = ("A", "B") if model.mu_law == "affine-cosine" else ("mu",)
     names = []
-    for i in range(1, 4):
+    for i in range(1, m + 1):
         for p in law:
             names += [f"{p}_{i}"] if g == 1 else [f"{p}_k{k + 1}_{i}" for k in range(g)]
-    return names + [f"log_sigma_{i}" for i in range(1, 4)]
+    return names + [f"log_sigma_{i}" for i in range(1, m + 1)]
 
 
 @dataclass
@@ -74,25 +74,26 @@ class PosteriorResult(Posterior):
     layout : LawLayout
         The law's parameter layout.
     encoder_cov : ndarray or None
-        Law covariance from encoder quantisation, shape (3, p, p), convolved into ``chain``.
+        Law covariance from encoder quantisation, shape (n, p, p), convolved into ``chain``.
     """
 
     layout: LawLayout = field(repr=False, default=None)
     encoder_cov: NDArray | None = field(repr=False, default=None)
 
     def law_samples(self) -> tuple[NDArray, NDArray]:
-        """Draws of ``A`` and ``B``, each shape (draws, G, 3)."""
+        """Draws of ``A`` and ``B``, each shape (draws, G, n) for n tendons per set."""
         s = self.samples
         p = self.layout.size
-        A = np.empty((s.shape[0], self.layout.n_groups, 3))
+        m = s.shape[1] // (p + 1)  # each tendon's law and its noise
+        A = np.empty((s.shape[0], self.layout.n_groups, m))
         B = np.empty_like(A)
-        for i in range(3):
+        for i in range(m):
             a, b = self.layout.split(s[:, i * p : (i + 1) * p].T)
             A[:, :, i], B[:, :, i] = a.T, b.T
         return A, B
 
     def mu0_samples(self) -> NDArray:
-        """Draws of ``mu_i(0) = A_i + B_i``, shape (draws, G, 3)."""
+        """Draws of ``mu_i(0) = A_i + B_i``, shape (draws, G, n)."""
         A, B = self.law_samples()
         return A + B
 
@@ -110,7 +111,7 @@ class PosteriorResult(Posterior):
         Returns
         -------
         dict
-            ``"lo"``, ``"median"``, ``"hi"``: arrays of shape (T, N, 3) (parameter
+            ``"lo"``, ``"median"``, ``"hi"``: arrays of shape (T, N, n) (parameter
             uncertainty only; measurement noise is not added).
         """
         inputs = model.inputs(data)
@@ -218,11 +219,12 @@ def law_likelihood(
     problem = LawProblem.from_model(model, inputs, values=model.block_params_)
     layout = problem.layout
     n_obs = inputs.n_frames
-    theta_law = np.stack([layout.join(model.A_[:, i], model.B_[:, i]) for i in range(3)])  # (3, p)
+    m = inputs.n_tendons
+    theta_law = np.stack([layout.join(model.A_[:, i], model.B_[:, i]) for i in range(m)])  # (n, p)
     # The likelihood and the prior factorise over the tendons (each has its own law and noise), so
-    # each tendon is sampled on its own: three samplers of p + 1 dimensions mix in far fewer steps
-    # than one of 3 (p + 1).
-    tendon_lp = [_TendonLogProb(problem, model.is_smooth, i) for i in range(3)]
+    # each tendon is sampled on its own: n samplers of p + 1 dimensions mix in far fewer steps
+    # than one of n (p + 1).
+    tendon_lp = [_TendonLogProb(problem, model.is_smooth, i) for i in range(m)]
     resid = np.array([lp.sse(theta_law[i][None])[0] for i, lp in enumerate(tendon_lp)])
     sigma0 = np.sqrt(np.maximum(resid / n_obs, 1e-20))
     zlb, zub = layout.free_bounds()
@@ -233,7 +235,7 @@ def law_likelihood(
             lower=np.r_[zlb, LOG_SIGMA_RANGE[0]],
             upper=np.r_[zub, LOG_SIGMA_RANGE[1]],
             vectorize=True,
-            desc=f"emcee, tendon {i + 1} of 3",
+            desc=f"emcee, tendon {i + 1} of {m}",
         )
         for i, lp in enumerate(tendon_lp)
     ]
@@ -262,12 +264,12 @@ def law_likelihood(
 
 
 def convolve_encoder(chain: NDArray, cov: NDArray, layout: LawLayout, rng: np.random.Generator) -> None:
-    """Add draws of the encoder's law covariance ``cov`` (3, p, p) to ``chain``'s laws, in place, keeping them feasible.
+    """Add draws of the encoder's law covariance ``cov`` (n, p, p) to ``chain``'s laws, in place, keeping them feasible.
 
     A shifted draw that leaves the feasible set is drawn again (up to 20 times), then kept unshifted.
     """
     p = layout.size
-    for i in range(3):
+    for i in range(cov.shape[0]):
         law = chain[:, :, i * p : (i + 1) * p]
         shift = rng.multivariate_normal(np.zeros(p), cov[i], size=law.shape[:2], check_valid="ignore")
         moved = law + shift

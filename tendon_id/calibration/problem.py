@@ -120,9 +120,9 @@ class LawProblem:
     ----------
     guide_design : ndarray, shape (T, K, 2)
         ``[m alpha cos alpha, m alpha]`` per frame and guide (K = N - 1) [rad].
-    log_drop : ndarray, shape (T, 3)
+    log_drop : ndarray, shape (T, n)
         ``ln T[1, N, i] - ln T[N, N, i]`` from the measured tensions [-].
-    weight : ndarray, shape (T, 3)
+    weight : ndarray, shape (T, n)
         Delta-method weights ``1 / (1/T[1,N]^2 + 1/T[N,N]^2)`` [N^2].
     tying : {"tied", "per-guide"}
     inputs : TransmissionInputs
@@ -194,6 +194,11 @@ class LawProblem:
     @property
     def n_guides(self) -> int:
         return self.guide_design.shape[1]
+
+    @property
+    def n_tendons(self) -> int:
+        """Tendons per set: one law each."""
+        return self.log_drop.shape[1]
 
     @property
     def n_groups(self) -> int:

@@ -65,13 +65,14 @@ def instrument_scores(
     """
     p = problem.n_params
     F0 = np.eye(p) / FLAT_SCALE**2
-    base = [problem.precision(i, sigmas[i]) + F0 for i in range(3)]
-    before = np.mean([_linear_band_sd(problem, np.linalg.inv(base[i]), frames) for i in range(3)])
+    tendons = range(problem.n_tendons)
+    base = [problem.precision(i, sigmas[i]) + F0 for i in tendons]
+    before = np.mean([_linear_band_sd(problem, np.linalg.inv(base[i]), frames) for i in tendons])
     out = []
     for j in range(2, problem.n_guides + 1):
         Xj = problem.joint_design(j)
         logdet, after = 0.0, []
-        for i in range(3):
+        for i in tendons:
             F = base[i] + problem.precision(i, sigmas[i], design=Xj, weight=_joint_weight(problem, j, i, thetas[i]))
             logdet += float(np.linalg.slogdet(F)[1])
             after.append(_linear_band_sd(problem, np.linalg.inv(F), frames))
@@ -105,7 +106,7 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
     ----------
     study : TyingStudy
         The per-guide study (its problem, its band, and residual noise per tendon [N]).
-    truth : ndarray, shape (T, N, 3)
+    truth : ndarray, shape (T, N, n)
         Joint-side truth [N]; read here only, never by a fit of the study itself.
     frames : ndarray of int
         Frames the band is evaluated on.
@@ -128,7 +129,7 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
     Ms, bs, thetas = [], [], []
     for j in joints:
         Xj = problem.joint_design(j)
-        for i in range(3):
+        for i in range(problem.n_tendons):
             t1 = problem.inputs.actuator[:, j - 1, i]
             label = truth[:, j - 1, i] + rng.normal(0.0, problem.noise_n, size=len(t1))
             yj = np.log(t1) - np.log(np.maximum(label, 1e-6))
@@ -143,12 +144,13 @@ def measure_advice(study: TyingStudy, truth: NDArray, frames: NDArray, settings:
             Ms.append(M)
             bs.append(b)
             thetas.append(constrained_lstsq(X_all, y_all, layout, 1e-10).x)
-    # Every candidate's three laws in one batch of samplers: one stream, seeded by the study's seed.
+    # Every candidate's laws (one per tendon) in one batch of samplers: one stream, seeded by the study's seed.
     draws = settings.sample(Ms, bs, C, d, thetas, layout, settings.seed)
     base = study.band.mean_width()
     out = []
     for n, j in enumerate(joints):
-        band = ambiguity_band(problem, draws[3 * n : 3 * n + 3], frames, seed=settings.seed)
+        m = problem.n_tendons
+        band = ambiguity_band(problem, draws[m * n : m * n + m], frames, seed=settings.seed)
         scores = band.scores(truth)
         shrink = float(1.0 - scores["band_width_mean"] / base) if base > 0 else 0.0
         out.append({"joint": j, **scores, "measured_shrinkage": shrink})

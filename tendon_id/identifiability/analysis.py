@@ -53,7 +53,7 @@ MISSPECIFIED_RATIO = 1.5
 class IdentifiabilityResult:
     """The single result of :func:`analyse`; :meth:`to_dict` gives the JSON of :doc:`/guide/identifiability` (a floor).
 
-    ``truth`` holds the data's intermediate joint-side truth (T, N, 3) where present; it
+    ``truth`` holds the data's intermediate joint-side truth (T, N, n) where present; it
     scores the bands and the advice and is never used to fit.  ``truth_law`` is the simulator's
     friction law where the recording's metadata carries it (:func:`~tendon_id.identifiability.truth.truth_law`),
     shown beside the fitted one and never fitted either.
@@ -268,7 +268,7 @@ def _emcee_tied(base: CapstanModel, views: Sequence[Recording], settings: StudyS
         base, views, target_ess=400.0, max_steps=20000, seed=settings.seed, encoder_bits=None, progress=False
     )
     A, B = post.law_samples()
-    corr = [float(np.corrcoef(A[:, 0, i], B[:, 0, i])[0, 1]) for i in range(3)]
+    corr = [float(np.corrcoef(A[:, 0, i], B[:, 0, i])[0, 1]) for i in range(A.shape[2])]
     mu0_sd = [float(x) for x in (A + B)[:, 0].std(axis=0, ddof=1)]
     return {
         "parameters": post.statistics(),

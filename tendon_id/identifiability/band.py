@@ -27,7 +27,7 @@ class Band:
     ----------
     frames : ndarray of int
         The frames of the recording the band is evaluated on.
-    lo, median, hi : ndarray, shape (F, N, 3)
+    lo, median, hi : ndarray, shape (F, N, n)
     """
 
     frames: NDArray[np.int64]
@@ -49,12 +49,12 @@ class Band:
         return self.width.mean(axis=(0, 2))
 
     def coverage(self, truth: NDArray) -> NDArray[np.float64]:
-        """Fraction of frames and tendons whose truth (T, N, 3) lies inside the band, per joint."""
+        """Fraction of frames and tendons whose truth (T, N, n) lies inside the band, per joint."""
         t = truth[self.frames]
         return np.mean((t >= self.lo) & (t <= self.hi), axis=(0, 2))
 
     def rmse(self, truth: NDArray, joints: slice | None = None) -> float:
-        """RMSE [N] of the band's median against the truth (T, N, 3), intermediate joints ``2..N-1`` by default."""
+        """RMSE [N] of the band's median against the truth (T, N, n), intermediate joints ``2..N-1`` by default."""
         j = slice(1, -1) if joints is None else joints
         return float(np.sqrt(np.mean((self.median[:, j] - truth[self.frames][:, j]) ** 2)))
 
@@ -105,7 +105,7 @@ def ambiguity_band(
     """
     rng = np.random.default_rng(seed)
     noise = problem.noise_n if noise_n is None else float(noise_n)
-    act = problem.inputs.actuator[frames]  # (F, N, 3)
+    act = problem.inputs.actuator[frames]  # (F, N, n)
     lo = np.empty(act.shape)
     med = np.empty(act.shape)
     hi = np.empty(act.shape)

@@ -38,7 +38,7 @@ class TyingStudy:
 
     @property
     def n_params(self) -> int:
-        return 3 * self.problem.n_params
+        return self.problem.n_tendons * self.problem.n_params
 
     @property
     def rank(self) -> int:
@@ -139,7 +139,7 @@ def study_tying(problem: IdentifiabilityProblem, settings: StudySettings, rng_se
     layout = problem.layout
     C, d = layout.constraints()
     g = problem.n_groups
-    for i in range(3):
+    for i in range(problem.n_tendons):
         theta = problem.fit(i)
         sigma = max(problem.residual_sigma(theta, i), 1e-9)
         M, b, c0 = problem.quadratic(i, sigma)

@@ -32,7 +32,8 @@ def span(values, unit: str = "", digits: int = 2) -> str:
 def fitted_mu0(result: IdentifiabilityResult) -> list[tuple[float, float]]:
     """Posterior mean and sd of the tied law's ``mu(0) = A + B`` per tendon [-]."""
     post = result.studies["tied"].posterior_summary()
-    return [(post[f"mu0_t{i + 1}"]["mean"], post[f"mu0_t{i + 1}"]["sd"]) for i in range(3)]
+    m = result.studies["tied"].problem.n_tendons
+    return [(post[f"mu0_t{i + 1}"]["mean"], post[f"mu0_t{i + 1}"]["sd"]) for i in range(m)]
 
 
 def _numbers(values, fmt: str = ".3f") -> str:
@@ -96,7 +97,8 @@ def lead_sentences(result: IdentifiabilityResult) -> list[dict]:
         fitted = "the misspecified fit gives" if mis["misspecified"] else "the fit gives"
         share = np.mean([m for m, _ in mu0]) / np.mean(law["mu0"])
         text = (
-            f"Simulator truth ({law['recipe']}): mu(0) = A + B = {_numbers(law['mu0'], '.2f')} for tendons 1–3, "
+            f"Simulator truth ({law['recipe']}): mu(0) = A + B = {_numbers(law['mu0'], '.2f')} "
+            f"for tendons 1–{len(law['mu0'])}, "
             f"the same at every guide; {fitted} {_numbers(m for m, _ in mu0)}"
             + (f", {100 * share:.0f} % of the truth." if abs(share - 1) > 0.1 else ".")
         )
@@ -163,7 +165,8 @@ def trust_sentences(result: IdentifiabilityResult) -> list[str]:
     noise, ratio = f"{mis['nominal_noise_n']:g} N", f"{mis['threshold_ratio']:g}"
     if mis["misspecified"]:
         out = [
-            f"Misspecified: the terminal residual corresponds to {res} N of noise (tendons 1–3) against the load "
+            f"Misspecified: the terminal residual corresponds to {res} N of noise "
+            f"(tendons 1–{len(mis['residual_sigma_n'])}) against the load "
             f"cells' {noise} (threshold: {ratio} times). The {result.model_name} structure does not explain this "
             "data, so its estimates, sds and bands describe the misspecified fit, not the robot; "
             + (
@@ -193,7 +196,7 @@ def tendon_sentences(result: IdentifiabilityResult, fitted: str = "fitted") -> l
     post = tied.posterior_summary()
     law = result.truth_law
     out = []
-    for i in range(3):
+    for i in range(tied.problem.n_tendons):
         a, b, m = post[f"A_t{i + 1}"], post[f"B_t{i + 1}"], post[f"mu0_t{i + 1}"]
         tr = (lambda k: f" (truth {law[k][i]:.2f})") if law else (lambda k: "")  # noqa: E731
         off = f", {abs(law['mu0'][i] - m['mean']) / m['sd']:.0f} sd from the truth" if law and m["sd"] > 0 else ""

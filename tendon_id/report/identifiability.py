@@ -87,15 +87,16 @@ def posterior_figure(result: IdentifiabilityResult):
     """Tied posterior draws of (A, B) per tendon: the sloppy A − B ridge at a tight A + B."""
     plt = pyplot()
     tied = result.studies["tied"]
-    fig, axes = plt.subplots(1, 4, figsize=(13, 3.2))
-    for i, ax in enumerate(axes[:3]):
+    m = len(tied.draws)  # one panel per tendon, then the per-guide correlations
+    fig, axes = plt.subplots(1, m + 1, figsize=(13 * (m + 1) / 4, 3.2))
+    for i, ax in enumerate(axes[:m]):
         d = tied.draws[i]
         ax.plot(d[:, 0], d[:, 1], ".", ms=1.5, alpha=0.4)
         ax.set_xlabel("A [-]")
         ax.set_ylabel("B [-]")
         ax.set_title(f"tendon {i + 1}: corr(A, B) = {tied.correlation(i)[0, 1]:.4f}")
         ax.grid(alpha=0.3)
-    ax = axes[3]
+    ax = axes[m]
     c = result.studies["per-guide"].correlation(0)
     im = ax.imshow(c, cmap="RdBu_r", vmin=-1, vmax=1)
     ax.set_title("per-guide posterior correlation, tendon 1", fontsize=8)
@@ -136,7 +137,8 @@ def band_figure(result: IdentifiabilityResult, truth: np.ndarray | None, joint: 
     start = 0
     frames = np.arange(start, min(start + window, inputs.n_frames))
     t = inputs.clock[frames]
-    fig, axes = plt.subplots(1, 3, figsize=(13, 3.3), sharey=False)
+    m = inputs.n_tendons  # one panel per tendon
+    fig, axes = plt.subplots(1, m, figsize=(13 * m / 3, 3.3), sharey=False)
     bands = {
         name: ambiguity_band(st.problem, st.draws, frames, seed=result.settings.seed)
         for name, st in (("tied", tied), ("per-guide", per))

@@ -55,7 +55,7 @@ def tension_trace_figure(rec: Recording, trajectory: str | None = None):
     fig, axes = plt.subplots(1, len(sets), figsize=(11, 3.4), sharey=True, layout="constrained", squeeze=False)
     for ax, j in zip(axes[0], sets):
         joint = rec.terminal[mask] if j == n else rec.joint_truth[mask, j - 1]
-        for i in range(3):
+        for i in range(rec.n_tendons):
             label = f"tendon {i + 1}: actuator side T[1,j]"
             ax.plot(t, rec.actuator[mask, j - 1, i], color=f"C{i}", lw=1.2, label=label)
             ax.plot(t, joint[:, i], color=f"C{i}", lw=1.0, ls="--", label=f"tendon {i + 1}: joint side T[j,j]")
@@ -79,7 +79,7 @@ def actuator_vs_terminal_figure(rec: Recording):
     plt = pyplot()
     n = rec.n_modules
     fig, ax = plt.subplots(figsize=(4.6, 4.2), layout="constrained")
-    for i in range(3):
+    for i in range(rec.n_tendons):
         ax.plot(rec.actuator[:, n - 1, i], rec.terminal[:, i], ".", ms=1.5, alpha=0.4, label=f"tendon {i + 1}")
     hi = float(np.nanmax(rec.actuator[:, n - 1]))
     ax.plot([0, hi], [0, hi], "k--", lw=1, label="joint side = actuator side")

@@ -2,8 +2,8 @@
 
 * ``__init__`` only stores settings; ``get_params``/``set_params`` read them back.
 * ``fit(data)`` returns ``self``; fitted state ends in ``_``.
-* ``predict(data)`` returns joint-side estimates ``T[j, j, i]``, shape (T, N, 3) [N],
-  without side effects; ``predict_chain`` every ``T[k, j, i]``, shape (T, N, N, 3).
+* ``predict(data)`` returns joint-side estimates ``T[j, j, i]``, shape (T, N, n) [N] for ``n``
+  tendons per set, without side effects; ``predict_chain`` every ``T[k, j, i]``, shape (T, N, N, n).
 * ``save(dir)``: ``model.json`` plus ``arrays.npz`` (never pickle); :func:`tendon_id.zoo.load`
   reads it back.
 """
@@ -38,16 +38,16 @@ class TransmissionModel(Estimator):
 
     @abc.abstractmethod
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
-        """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``."""
+        """Every ``T[k, j, i]`` [N], shape (T, N, N, n), NaN where ``k > j``."""
 
     def predict(self, data: Recording | Sequence[Recording]) -> np.ndarray:
-        """Joint-side estimates ``T[j, j, i]`` [N], shape (T, N, 3)."""
+        """Joint-side estimates ``T[j, j, i]`` [N], shape (T, N, n)."""
         chain = self.predict_chain(data)
         n = chain.shape[1]
         return chain[:, np.arange(n), np.arange(n)]
 
     def predict_terminal(self, data: Recording | Sequence[Recording]) -> np.ndarray:
-        """What the terminal load cell is predicted to read [N], shape (T, 3)."""
+        """What the terminal load cell is predicted to read [N], shape (T, n)."""
         return self.predict(data)[:, -1]
 
     @property
@@ -67,6 +67,11 @@ class TransmissionModel(Estimator):
                 raise ConfigError(
                     f"the model was fitted on {self.n_modules_} modules but {r.source or 'the data'} has {r.n_modules}"
                 )
+            fitted = getattr(getattr(self, "geometry_", None), "n_tendons", r.n_tendons)
+            if r.n_tendons != fitted:
+                raise ConfigError(
+                    f"the model was fitted on {fitted} tendons per set but {r.source or 'the data'} has {r.n_tendons}"
+                )
         return recs
 
     def score(self, data: Recording | Sequence[Recording]) -> dict[str, Any]:
@@ -82,11 +87,11 @@ class TransmissionModel(Estimator):
         if all(t is not None for t in truth):
             joint_truth = np.concatenate(truth)
             pred = self.predict(recs)
-            n = pred.shape[1]
+            n, m = pred.shape[1], pred.shape[2]
             per_joint = [tendon_metrics(pred[:, j], joint_truth[:, j]) for j in range(n)]
             inner = slice(1, n - 1) if n > 2 else slice(0, 0)
             overall = (
-                tendon_metrics(pred[:, inner].reshape(-1, 3), joint_truth[:, inner].reshape(-1, 3)) if n > 2 else None
+                tendon_metrics(pred[:, inner].reshape(-1, m), joint_truth[:, inner].reshape(-1, m)) if n > 2 else None
             )
             out["joints"] = {"overall": overall, "per_joint": per_joint}
         return out

@@ -81,7 +81,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
 
     Attributes
     ----------
-    A_, B_ : ndarray, shape (G, 3)
+    A_, B_ : ndarray, shape (G, n)
         Fitted law, ``G = 1`` (tied) or ``N - 1`` (per-guide); ``A_`` is zero for
         the constant law and ``B_`` is then ``mu``.
     block_values_ : dict
@@ -150,7 +150,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
     ) -> CapstanModel:
         """An unfitted copy of this model, given a law instead of calibrating one.
 
-        ``A``, ``B`` have shape (G, 3) or (3,) (tied); ``block_values`` are the free block
+        ``A``, ``B`` have shape (G, n) or (n,) (tied), for ``n`` tendons per set; ``block_values`` are the free block
         parameters, ``{block: {param: value}}`` (default: the blocks' own).
         """
         model = type(self)(**self.get_params())
@@ -188,7 +188,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         return float(self.block_params_[contact[0].name]["alpha_c"]) if contact else None
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
-        """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``."""
+        """Every ``T[k, j, i]`` [N], shape (T, N, N, n), NaN where ``k > j``."""
         inputs = self.inputs(data)
         chain = np.exp(self.propagate(inputs, self.A_, self.B_, self.block_params_))
         chain[:, 0] = self._actuator_side(inputs)  # exactly, not exp(log(.))
@@ -203,7 +203,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
     def _actuator_side(self, inputs) -> NDArray[np.float64]:
         # The readings, through the actuator-side blocks (a cell's gain, its lag) where the model has them.
         return actuator_tension(
-            self.block_objects, inputs, self.block_params_, np.arange(inputs.n_modules), np.arange(3)
+            self.block_objects, inputs, self.block_params_, np.arange(inputs.n_modules), np.arange(inputs.n_tendons)
         )
 
     def predict_terminal(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
@@ -211,7 +211,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
 
     @property
     def mu0_(self) -> NDArray[np.float64]:
-        """``mu_i(0) = A_i + B_i``, shape (G, 3): what terminal data pins down best."""
+        """``mu_i(0) = A_i + B_i``, shape (G, n): what terminal data pins down best."""
         self.check_fitted()
         return self.A_ + self.B_
 
@@ -244,11 +244,11 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         self.calibration_ = state.get("calibration", {})
         self.A_ = np.asarray(arrays["A"], dtype=float)
         self.B_ = np.asarray(arrays["B"], dtype=float)
-        rows = (1, self.n_modules_ - 1)  # a tied law, or one per guide
-        if self.A_.shape != self.B_.shape or self.A_.ndim != 2 or self.A_.shape[1] != 3 or self.A_.shape[0] not in rows:
+        rows, m = (1, self.n_modules_ - 1), self.geometry_.n_tendons  # a tied law, or one per guide
+        if self.A_.shape != self.B_.shape or self.A_.ndim != 2 or self.A_.shape[1] != m or self.A_.shape[0] not in rows:
             raise ConfigError(
                 f"arrays A {self.A_.shape} and B {self.B_.shape} do not fit a {self.n_modules_}-module capstan law: "
-                f"both need shape (1, 3) when tied or ({self.n_modules_ - 1}, 3) per guide"
+                f"both need shape (1, {m}) when tied or ({self.n_modules_ - 1}, {m}) per guide"
             )
         if not (np.all(np.isfinite(self.A_)) and np.all(np.isfinite(self.B_))):
             raise ConfigError("arrays A and B hold NaN or inf")

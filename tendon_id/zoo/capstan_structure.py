@@ -121,7 +121,7 @@ class CapstanStructure:
     def backbone(self, inputs: TransmissionInputs, values: dict | None = None) -> NDArray:
         """The backbone wrap with this model's routing wrap, paper Eq. (3), shape (T, N-1) [rad]."""
         values = self.block_params() if values is None else values
-        ctx = HookContext(inputs, np.array([inputs.n_modules - 1]), np.arange(3))
+        ctx = HookContext(inputs, np.array([inputs.n_modules - 1]), np.arange(inputs.n_tendons))
         alpha = inputs.bend_wrap
         for b in self.block_objects:
             if b.stage == "routing":
@@ -136,7 +136,9 @@ class CapstanStructure:
         """
         values = self.block_params() if values is None else values
         wrap = self.backbone(inputs, values)
-        ctx = HookContext(inputs, np.array([inputs.n_modules - 1]), np.arange(3), alpha=wrap[:, :, None, None])
+        ctx = HookContext(
+            inputs, np.array([inputs.n_modules - 1]), np.arange(inputs.n_tendons), alpha=wrap[:, :, None, None]
+        )
         m = np.ones(wrap.shape + (1, 1))
         for b in self.block_objects:
             if b.stage == "exponent" and not b.per_tendon and b.multiplier:
@@ -157,7 +159,7 @@ class CapstanStructure:
         """``values``, ``sets`` and ``tendons`` with their defaults: the blocks' values, every set, every tendon."""
         values = self.block_params() if values is None else values
         sets = np.arange(inputs.n_modules) if sets is None else np.asarray(sets)
-        tendons = np.arange(3) if tendons is None else np.asarray(tendons)
+        tendons = np.arange(inputs.n_tendons) if tendons is None else np.asarray(tendons)
         return values, sets, tendons
 
     def exponent(self, inputs: TransmissionInputs, A: NDArray, B: NDArray, values: dict | None = None) -> NDArray:

@@ -37,9 +37,11 @@ def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None
     ConfigError
         If recordings disagree on the robot or the module count.
     """
-    n = recordings[0].n_modules
+    n, n_tendons = recordings[0].n_modules, recordings[0].n_tendons
     if any(r.n_modules != n for r in recordings):
         raise ConfigError("all recordings must have the same number of modules")
+    if any(r.n_tendons != n_tendons for r in recordings):
+        raise ConfigError("all recordings must have the same number of tendons per set")
     if isinstance(robot, RobotGeometry):
         geometry = robot
     else:
@@ -52,19 +54,22 @@ def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None
                     "recordings come from different robots (their 'robot' metadata differ); pass robot= explicitly"
                 )
             described = dict(metas[0] or {})
-        # A description without a module count describes the robot the columns show.
-        geometry = RobotGeometry.from_dict({"n_modules": n, **described})
+        # A description without a module or tendon count describes the robot the columns show.
+        geometry = RobotGeometry.from_dict({"n_modules": n, "n_tendons": n_tendons, **described})
         source = recordings[0].source
         where = "the robot given" if robot is not None else f"the recordings{f' ({source})' if source else ''}"
         _warn_defaulted(geometry, described, where)
     if geometry.n_modules != n:
         raise ConfigError(f"the robot has {geometry.n_modules} modules but the data has {n}")
+    if geometry.n_tendons != n_tendons:
+        raise ConfigError(f"the robot has {geometry.n_tendons} tendons per set but the data has {n_tendons}")
     return geometry
 
 
 def _warn_defaulted(geometry: RobotGeometry, described: dict, where: str) -> None:
     """Warn, naming each field and value, where a robot description left the robot to the defaults."""
-    defaulted = {k: v for k, v in geometry.to_dict().items() if k != "n_modules" and k not in described}
+    counts = ("n_modules", "n_tendons", "bending_axes", "azimuths")  # read from the data, or no length to default
+    defaulted = {k: v for k, v in geometry.to_dict().items() if k not in counts and k not in described}
     if not defaulted:
         return
     values = ", ".join(f"{k}={v:.6g}" for k, v in defaulted.items())
@@ -85,9 +90,9 @@ class TransmissionInputs(FrameInputs):
     ----------
     angles : ndarray, shape (T, N, 2)
         Joint angles [rad].
-    actuator : ndarray, shape (T, N, 3)
-        Actuator-side tensions ``T[1, j, i]`` [N].
-    terminal : ndarray, shape (T, 3)
+    actuator : ndarray, shape (T, N, n)
+        Actuator-side tensions ``T[1, j, i]`` [N] of the ``n`` tendons of each set.
+    terminal : ndarray, shape (T, n)
         Terminal joint-side labels ``T[N, N, i]`` [N].
     reset : ndarray of bool, shape (T,)
         First frame of each trajectory.
@@ -122,6 +127,11 @@ class TransmissionInputs(FrameInputs):
     @property
     def n_modules(self) -> int:
         return self.angles.shape[1]
+
+    @property
+    def n_tendons(self) -> int:
+        """Tendons per set ``n``."""
+        return self.actuator.shape[2]
 
     @cached_property
     def bend_wrap(self) -> NDArray[np.float64]:
@@ -187,7 +197,7 @@ class TransmissionInputs(FrameInputs):
 
     @cached_property
     def log_actuator(self) -> NDArray[np.float64]:
-        """``ln T[0, j, i]`` [ln N], shape (T, N, 3) (cached: the chain starts from it at every evaluation)."""
+        """``ln T[0, j, i]`` [ln N], shape (T, N, n) (cached: the chain starts from it at every evaluation)."""
         return np.log(self.actuator)
 
     @classmethod

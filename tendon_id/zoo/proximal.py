@@ -33,9 +33,9 @@ class ProximalModel(TransmissionModel):
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         recs = self._check_data(data)
-        act = np.concatenate([r.actuator for r in recs])  # (T, N, 3)
+        act = np.concatenate([r.actuator for r in recs])  # (T, N, n)
         n = act.shape[1]
-        chain = np.broadcast_to(act[:, None], (act.shape[0], n, n, 3)).copy()
+        chain = np.broadcast_to(act[:, None], (act.shape[0], n, n, act.shape[2])).copy()
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan  # k > j is off the path
         return chain
 

@@ -216,6 +216,11 @@ class Block(EffectBlock):
         """Starting values of the block's parameters."""
         return {p: float(getattr(self, p)) for p in self.param_names}
 
+    def for_tendons(self, n_tendons: int) -> Block:
+        """This block for a robot of ``n_tendons`` per set (default: itself; a block with a parameter per
+        tendon resizes)."""
+        return self
+
     def started_from(self, geometry) -> Block:
         """This block with the starting values the robot's measured sizes give (default: itself).
 
@@ -261,23 +266,24 @@ class Block(EffectBlock):
         model : CapstanModel
             The base model (without this block).
         inputs : TransmissionInputs
-        A, B : ndarray, shape (G, 3)
-            The base's law.
+        A, B : ndarray, shape (G, n)
+            The base's law, for ``n`` tendons per set.
         values : dict
             The base's block parameters.
-        base : ndarray, shape (T, 3), optional
+        base : ndarray, shape (T, n), optional
             The base's terminal reading with that law, if already computed [N].
 
         Returns
         -------
-        dict of str to ndarray, shape (T, 3)
+        dict of str to ndarray, shape (T, n)
         """
-        augmented = model.with_blocks(self)
+        block = self.for_tendons(inputs.n_tendons)
+        augmented = model.with_blocks(block)
         if base is None:
             base = model.terminal_reading(inputs, A, B, values)
         out = {}
-        for label, probe in self.probes():
-            out[label] = augmented.terminal_reading(inputs, A, B, {**values, self.name: probe}) - base
+        for label, probe in block.probes():
+            out[label] = augmented.terminal_reading(inputs, A, B, {**values, block.name: probe}) - base
         return out
 
     @classmethod

@@ -190,8 +190,8 @@ class GuideWear(Block):
         k = inputs.n_modules - 1
         probe = cls(guides=tuple(range(1, k + 1)))
         cols = probe.signature(model, inputs, A, B, values)
-        X = np.stack([c.ravel() for c in cols.values()], axis=1)  # (3T, K)
-        law = _law_columns(model, inputs, A, B, values)  # (3T, 6)
+        X = np.stack([c.ravel() for c in cols.values()], axis=1)  # (nT, K) for n tendons per set
+        law = _law_columns(model, inputs, A, B, values)  # (nT, 2n)
         y = np.asarray(residual, dtype=float).ravel()
         ok = np.isfinite(y) & np.all(np.isfinite(X), axis=1) & np.all(np.isfinite(law), axis=1)
         X, y, law = X[ok], y[ok], law[ok]
@@ -220,16 +220,17 @@ class GuideWear(Block):
 
 
 def _law_columns(model, inputs, A: NDArray, B: NDArray, values: dict, step: float = 1e-3) -> NDArray:
-    """Sensitivity of the terminal reading [N] to each tendon's law, shape (3T, 6).
+    """Sensitivity of the terminal reading [N] to each tendon's law, shape (nT, 2n) for n tendons per set.
 
-    ``A`` and ``B`` of every guide group move together; rows are the flattened ``(T, 3)``
+    ``A`` and ``B`` of every guide group move together; rows are the flattened ``(T, n)``
     reading, and tendon ``i``'s law moves only its own rows.
     """
     base = model.terminal_reading(inputs, A, B, values)
     dA = (model.terminal_reading(inputs, A + step, B, values) - base) / step
     dB = (model.terminal_reading(inputs, A, B + step, values) - base) / step
-    cols = np.zeros(base.shape + (6,))
-    for i in range(3):
+    n = base.shape[1]
+    cols = np.zeros(base.shape + (2 * n,))
+    for i in range(n):
         cols[:, i, 2 * i] = dA[:, i]
         cols[:, i, 2 * i + 1] = dB[:, i]
-    return cols.reshape(-1, 6)
+    return cols.reshape(-1, 2 * n)

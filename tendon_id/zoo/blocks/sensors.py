@@ -19,9 +19,6 @@ from tendon_id.zoo.blocks.base import Block
 
 __all__ = ["ActuatorCells", "ClockSkew", "LoadCellDynamics"]
 
-#: Tendons whose cells :class:`ActuatorCells` calibrates, 1-based as in its parameter names.
-_TENDONS = (1, 2, 3)
-
 
 def _finite(block: str, name: str, value) -> float:
     try:
@@ -33,7 +30,7 @@ def _finite(block: str, name: str, value) -> float:
     return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class ActuatorCells(Block):
     """Gain and offset errors of the actuator-side load cells (:doc:`/guide/simulator` ``actuator_cells``).
 
@@ -46,10 +43,14 @@ class ActuatorCells(Block):
 
     Parameters
     ----------
-    gain_1, gain_2, gain_3 : float
-        Relative gain (span) error of tendon 1, 2, 3's cells [-], ``> -1``.  Default 0.
-    offset_1, offset_2, offset_3 : float
-        Zero offset of tendon 1, 2, 3's cells [N].  Default 0.
+    n_tendons : int
+        Tendons per set ``n``: the block has ``gain_1..gain_n`` and ``offset_1..offset_n``.  Default 3;
+        a model sizes it to its robot when it fits (:meth:`started_from`).
+    fixed : bool
+        Hold the errors instead of fitting them.
+    **cells : float
+        ``gain_i``, relative gain (span) error of tendon ``i``'s cells [-], ``> -1``, and ``offset_i``,
+        their zero offset [N].  Default 0.
     """
 
     name = "actuator_cells"
@@ -57,31 +58,55 @@ class ActuatorCells(Block):
     stage = "actuator"
     per_tendon = True
     regressor = "the actuator tension and a constant, per tendon: residual affine in the input, no trend in time"
-    gain_1: float = 0.0
-    gain_2: float = 0.0
-    gain_3: float = 0.0
-    offset_1: float = 0.0
-    offset_2: float = 0.0
-    offset_3: float = 0.0
-    param_names: tuple[str, ...] = tuple(f"gain_{i}" for i in _TENDONS) + tuple(f"offset_{i}" for i in _TENDONS)
-    # The bounds hold ten of the simulator's default spreads (gain_sd 0.01, offset_sd 2 N) and more.
-    bounds: dict = field(
-        default_factory=lambda: {
-            **{f"gain_{i}": (-0.2, 0.2) for i in _TENDONS},
-            **{f"offset_{i}": (-30.0, 30.0) for i in _TENDONS},
-        }
-    )
-    probe: dict = field(
-        default_factory=lambda: {**{f"gain_{i}": 0.01 for i in _TENDONS}, **{f"offset_{i}": 2.0 for i in _TENDONS}},
-        compare=False,
-        repr=False,
-    )
+    n_tendons: int = 3
+    # The values, in param_names' order: a field, so that two blocks with other errors differ.
+    cells: tuple[float, ...] = ()
 
-    def __post_init__(self) -> None:
-        for p in self.param_names:
-            object.__setattr__(self, p, _finite(self.name, p, getattr(self, p)))
-            if p.startswith("gain") and not getattr(self, p) > -1.0:
-                raise ConfigError(f"{self.name}.{p} must be > -1 (a cell that reads its load), got {getattr(self, p)}")
+    def __init__(self, n_tendons: int = 3, fixed: bool = False, **cells) -> None:
+        if isinstance(n_tendons, bool) or int(n_tendons) != n_tendons or n_tendons < 2:
+            raise ConfigError(f"{self.name}.n_tendons must be an integer >= 2, got {n_tendons!r}")
+        n = int(n_tendons)
+        tendons = range(1, n + 1)
+        names = tuple(f"gain_{i}" for i in tendons) + tuple(f"offset_{i}" for i in tendons)
+        unknown = sorted(set(cells) - set(names))
+        if unknown:
+            raise ConfigError(f"{self.name}: unknown setting {unknown[0]!r} for {n} tendons per set")
+        values = tuple(_finite(self.name, p, cells.get(p, 0.0)) for p in names)
+        for p, v in zip(names, values):
+            if p.startswith("gain") and not v > -1.0:
+                raise ConfigError(f"{self.name}.{p} must be > -1 (a cell that reads its load), got {v}")
+            object.__setattr__(self, p, v)
+        object.__setattr__(self, "n_tendons", n)
+        object.__setattr__(self, "cells", values)
+        object.__setattr__(self, "fixed", bool(fixed))
+        object.__setattr__(self, "param_names", names)
+        # The bounds hold ten of the simulator's default spreads (gain_sd 0.01, offset_sd 2 N) and more.
+        object.__setattr__(
+            self,
+            "bounds",
+            {**{f"gain_{i}": (-0.2, 0.2) for i in tendons}, **{f"offset_{i}": (-30.0, 30.0) for i in tendons}},
+        )
+        object.__setattr__(
+            self, "probe", {**{f"gain_{i}": 0.01 for i in tendons}, **{f"offset_{i}": 2.0 for i in tendons}}
+        )
+
+    def neutral(self) -> dict[str, float]:
+        return {p: 0.0 for p in self.param_names}
+
+    def settings(self) -> dict:
+        # A 3-tendon block saves as it did before the count could change.
+        return {} if self.n_tendons == 3 else {"n_tendons": self.n_tendons}
+
+    def started_from(self, geometry) -> ActuatorCells:
+        """The block sized to ``geometry``'s tendons per set (:meth:`for_tendons`)."""
+        return self.for_tendons(geometry.n_tendons)
+
+    def for_tendons(self, n: int) -> ActuatorCells:
+        """The block with ``n`` tendons' cells, its values kept where the tendon exists."""
+        if n == self.n_tendons:
+            return self
+        kept = {p: v for p, v in self.initial().items() if int(p.rsplit("_", 1)[1]) <= n}
+        return ActuatorCells(n_tendons=n, fixed=self.fixed, **kept)
 
     def param_tendon(self, param: str) -> int | None:
         return int(param.rsplit("_", 1)[1]) - 1  # gain_i, offset_i: tendon i's cells only

@@ -1,6 +1,6 @@
 """The snake chain's part of :func:`~tendon_id.zoo.testing.check_model`: shapes, hidden truth, another robot size.
 
-A snake model predicts every joint side (T, N, 3) and the whole chain (T, N, N, 3); it fits on
+A snake model predicts every joint side (T, N, n) and the whole chain (T, N, N, n) for n tendons per set; it fits on
 the terminal label alone, so scrambled intermediate truth changes nothing it predicts; and it
 refuses a robot of another size.
 """
@@ -19,14 +19,14 @@ SIZE_KEYS = ("n_modules", "robot")
 
 
 def check_shapes(model, test: Recording) -> np.ndarray:
-    """Shapes of ``predict`` (T, N, 3) and ``predict_chain`` (T, N, N, 3), NaN exactly where ``k > j``.
+    """Shapes of ``predict`` (T, N, n) and ``predict_chain`` (T, N, N, n), NaN exactly where ``k > j``.
 
     Returns ``predict``.
     """
-    t, n = test.n_frames, test.n_modules
+    t, n, m = test.n_frames, test.n_modules, test.n_tendons
     pred, chain = model.predict(test), model.predict_chain(test)
-    assert pred.shape == (t, n, 3), f"{model.name}: predict shape {pred.shape}, expected {(t, n, 3)}"
-    assert chain.shape == (t, n, n, 3), f"{model.name}: predict_chain shape {chain.shape}, expected {(t, n, n, 3)}"
+    assert pred.shape == (t, n, m), f"{model.name}: predict shape {pred.shape}, expected {(t, n, m)}"
+    assert chain.shape == (t, n, n, m), f"{model.name}: predict_chain shape {chain.shape}, expected {(t, n, n, m)}"
     below = np.arange(n)[:, None] > np.arange(n)[None, :]
     assert np.isnan(chain[:, below]).all(), f"{model.name}: predict_chain must be NaN where k > j"
     assert np.isfinite(chain[:, ~below]).all(), f"{model.name}: predict_chain must be finite where k <= j"
@@ -51,7 +51,7 @@ def scrambled_truth(rec: Recording, seed: int) -> Recording:
     """
     rng = np.random.default_rng(seed)
     n = rec.n_modules
-    truth = rng.uniform(1.0, 400.0, size=(rec.n_frames, n, 3))
+    truth = rng.uniform(1.0, 400.0, size=(rec.n_frames, n, rec.n_tendons))
     truth[:, -1] = rec.terminal
     return Recording.from_arrays(
         trajectory=rec.trajectory_ids,

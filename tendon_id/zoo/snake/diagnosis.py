@@ -111,7 +111,7 @@ def make_splits(train: list[Recording], test: list[Recording] | None, geometry, 
 
 
 def strata_masks(inputs) -> list[tuple[str, str, NDArray]]:
-    """``(name, kind, mask)`` of every stratum; masks have shape (T,) or (T, 3).
+    """``(name, kind, mask)`` of every stratum; masks have shape (T,) or (T, n).
 
     Parameters
     ----------
@@ -128,7 +128,7 @@ def strata_masks(inputs) -> list[tuple[str, str, NDArray]]:
             out.append((f"guide {k + 1} bent (wrap > {top:.3f} rad)", "guide", w > top))
     # Near reversals: a play operator on the actuator tension sticks (sigma = 0) from a
     # reversal until the tension has moved 2 * REVERSAL_BAND in log away from it.
-    act = inputs.actuator[:, -1]  # (T, 3): the terminal set, the one the labels see
+    act = inputs.actuator[:, -1]  # (T, n): the terminal set, the one the labels see
     stuck = play_operator(np.log(act), REVERSAL_BAND, inputs.reset).sigma == 0
     out.append(("near tension reversals", "reversal", stuck))
     out.append(("away from tension reversals", "reversal", ~stuck))
@@ -262,7 +262,7 @@ def noise_floor(
         Fitted base model.
     inputs : TransmissionInputs
         Held-out frames.
-    residual : ndarray, shape (T, 3)
+    residual : ndarray, shape (T, n)
         The base's held-out residual [N].
     rng : numpy.random.Generator
     draws : int

@@ -66,7 +66,7 @@ class SnakeFamily(Family):
         return refit(structure, inputs, *start, max_nfev=max_nfev, tol=tol)
 
     def residual(self, model, inputs):
-        """Measured minus predicted terminal reading [N], shape (T, 3), NaN in the model's warm-up."""
+        """Measured minus predicted terminal reading [N], shape (T, n), NaN in the model's warm-up."""
         e = inputs.terminal - model.terminal_reading(inputs, *self.start(model))
         e[inputs.since_start < float(model.warmup_s)] = np.nan
         return e
@@ -110,7 +110,7 @@ class SnakeFamily(Family):
     def calibration_doc(self, model, recordings) -> dict:
         """``{"model", "tying", "A", "B", "mu0", "terminal": M, ..., "alpha_0", "alpha_c"}``.
 
-        ``A``, ``B``, ``mu0``: tied, 3 numbers each, per-guide, N-1 lists of 3.  ``alpha_0`` is the
+        ``A``, ``B``, ``mu0``: tied, n numbers each (one per tendon), per-guide, N-1 lists of n.  ``alpha_0`` is the
         fitted routing wrap [rad], ``alpha_c`` the fitted clearance [rad] (None without contact).
         """
 

@@ -44,7 +44,7 @@ FLOOR_N = 1e-3
 
 
 def _law_stack(A: NDArray, B: NDArray, layout: LawLayout) -> NDArray:
-    return np.concatenate([layout.to_free(layout.join(A[:, i], B[:, i])) for i in range(3)])
+    return np.concatenate([layout.to_free(layout.join(A[:, i], B[:, i])) for i in range(A.shape[1])])
 
 
 def refit(
@@ -65,8 +65,8 @@ def refit(
         The blocks and settings (its ``warmup_s`` decides which frames count).
     inputs : TransmissionInputs
         Training data, with terminal labels.
-    A, B : ndarray, shape (G, 3)
-        Starting law (a base model's fit), feasible.
+    A, B : ndarray, shape (G, n)
+        Starting law (``n`` tendons per set) (a base model's fit), feasible.
     values : dict
         Starting block parameters ``{block: {param: value}}``; blocks missing here start at
         their own (neutral) values.
@@ -86,7 +86,7 @@ def refit(
     t0 = time.perf_counter()
     structure = structure.started_from(inputs.geometry)  # a candidate's clearance starts from the robot's sizes
     layout = LawLayout(structure.mu_law, A.shape[0])
-    p = layout.size
+    p, m = layout.size, A.shape[1]  # law parameters per tendon, tendons per set
     free = structure.free_parameters()
     start_vals = structure.block_params(values)
     names = [(b, q) for b, q, _, _ in free]
@@ -98,7 +98,7 @@ def refit(
     inset = 0.01 * (bhi - blo)
     b0 = np.clip(np.array([start_vals[b][q] for b, q in names], dtype=float), blo + inset, bhi - inset)
     zlb, zub = layout.free_bounds()
-    lb, ub = np.r_[np.tile(zlb, 3), blo], np.r_[np.tile(zub, 3), bhi]
+    lb, ub = np.r_[np.tile(zlb, m), blo], np.r_[np.tile(zub, m), bhi]
     z0 = np.clip(np.r_[_law_stack(A, B, layout), b0], lb, ub)
     keep = inputs.since_start >= float(structure.warmup_s)
     if not keep.any():
@@ -115,13 +115,13 @@ def refit(
     terms = structure.exponent_terms(inputs, start_vals, sets=sets) if not free else None
     # The chain's input: the law and every block parameter but those acting on the terminal reading
     # alone.  The Jacobian's column of such a parameter reuses the chain of the point it steps from.
-    in_chain = np.r_[np.ones(3 * p, dtype=bool), [not structure.sensor_only(b) for b, _ in names]]
+    in_chain = np.r_[np.ones(m * p, dtype=bool), [not structure.sensor_only(b) for b, _ in names]]
     chains: dict[bytes, NDArray] = {}
 
     def unpack(z):
-        th = np.stack([layout.from_free(z[i * p : (i + 1) * p]) for i in range(3)], axis=1)
+        th = np.stack([layout.from_free(z[i * p : (i + 1) * p]) for i in range(m)], axis=1)
         vals = {k: dict(v) for k, v in start_vals.items()}
-        for (bn, q), v in zip(names, z[3 * p :]):
+        for (bn, q), v in zip(names, z[m * p :]):
             vals[bn][q] = float(v)
         a, b = layout.split(th)
         return a, b, vals
@@ -138,12 +138,12 @@ def refit(
         pred = structure.sensor_reading(inputs, chains[key], vals)[keep]
         return (np.log(np.maximum(pred, FLOOR_N)) - log_label).T.ravel()  # tendon-major rows
 
-    n_par = 3 * p + len(names)
-    sparsity = lil_matrix((3 * n_keep, n_par), dtype=int)
-    for i in range(3):
+    n_par = m * p + len(names)
+    sparsity = lil_matrix((m * n_keep, n_par), dtype=int)
+    for i in range(m):
         sparsity[i * n_keep : (i + 1) * n_keep, i * p : (i + 1) * p] = 1
     blocks = {b.name: b for b in structure.block_objects}
-    for col, (bn, q) in enumerate(names, start=3 * p):
+    for col, (bn, q) in enumerate(names, start=m * p):
         i = blocks[bn].param_tendon(q)  # a tendon's own parameter moves only that tendon's rows
         rows = slice(None) if i is None else slice(i * n_keep, (i + 1) * n_keep)
         sparsity[rows, col] = 1
@@ -168,16 +168,16 @@ def refit(
     block_values = {bn: {q: vals[bn][q] for bb, q in names if bb == bn} for bn, _ in names}
     fitted = structure.fitted_with(a, b, inputs.geometry, inputs.n_modules, block_values)
     sse = float(np.sum(sol.fun**2)) if improved else sse0
-    fitted.calibration_ = {"loss": sse / (3 * n_keep), "status": str(sol.message), "n_eval": n_eval, "starts": 1}
-    labels = [f"{ab}[{g}]:{i + 1}" for i in range(3) for ab, g in _law_labels(layout)] + [f"{b}:{q}" for b, q in names]
+    fitted.calibration_ = {"loss": sse / (m * n_keep), "status": str(sol.message), "n_eval": n_eval, "starts": 1}
+    labels = [f"{ab}[{g}]:{i + 1}" for i in range(m) for ab, g in _law_labels(layout)] + [f"{b}:{q}" for b, q in names]
     corr = jacobian_correlation(sol.jac)
     fitted.calibration_["seconds"] = time.perf_counter() - t0
     return Fit(
         model=fitted,
         sse=sse,
-        n_obs=3 * n_keep,
+        n_obs=m * n_keep,
         labels=labels,
-        n_law=3 * p,
+        n_law=m * p,
         x=z,
         lower=lb,
         upper=ub,
