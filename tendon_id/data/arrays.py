@@ -103,9 +103,9 @@ def frame_from_arrays(
         data[name] = values
     meta = dict(meta or {})
     meta.setdefault("n_modules", n)
-    robot = meta.get("robot") or {}
-    if robot.get("n_tendons", 3) != m:
-        raise RecordingError(f"the arrays have {m} tendons per set but robot.n_tendons is {robot.get('n_tendons', 3)}")
+    given = (meta.get("robot") or {}).get("n_tendons")  # None: the columns say how many
+    if given is not None and given != m:
+        raise RecordingError(f"the arrays have {m} tendons per set but robot.n_tendons is {given}")
     return pd.DataFrame(data), meta
 
 
