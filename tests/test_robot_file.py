@@ -117,3 +117,31 @@ def test_a_recording_takes_its_tendon_count_from_its_robot_or_columns():
         Recording(_frame(4), {"robot": {"n_tendons": 3}})
     with pytest.raises(RecordingError, match="tension_act_1_3"):
         Recording(_frame(2), {"robot": {"n_tendons": 3}})  # the robot says 3: the third is missing
+
+
+def test_a_mapping_names_its_robot_file(tmp_path):
+    from tendon_id.data.mapping import load_mapping, read_files
+
+    (tmp_path / "hinge2.toml").write_text(
+        'n_modules = 2\nn_tendons = 2\nbending_axes = 1\nlink_length = "40 mm"\njoint_gap = "8 mm"\n'
+        'hole_radius = "10 mm"\n[azimuths]\nfirst = ["0 deg", "180 deg"]\nstep = "0 deg"\n'
+    )
+    names = ["theta_1_x", "theta_2_x"]  # a hinge's log has no theta_y
+    names += [f"tension_act_{j}_{i}" for j in (1, 2) for i in (1, 2)] + ["tension_joint_2_1", "tension_joint_2_2"]
+    columns = "\n".join(
+        f'{n} = {{ column = "{n}", unit = "{"deg" if n[0] == "t" and "theta" in n else "N"}" }}' for n in names
+    )
+    (tmp_path / "map.toml").write_text(
+        f'kind = "snake"\n[columns]\nt = {{ column = "t", unit = "s" }}\n{columns}\n'
+        '[meta]\nrobot = { file = "hinge2.toml", hole_radius = "11 mm" }\n'
+    )
+    frame = pd.DataFrame({"t": [0.0, 0.1, 0.2], **{n: [1.0] * 3 if "theta" in n else [50.0] * 3 for n in names}})
+    frame.to_csv(tmp_path / "run.csv", index=False)
+    (rec,) = read_files([tmp_path / "run.csv"], load_mapping(tmp_path / "map.toml"))
+    robot = rec.meta["robot"]
+    assert rec.n_tendons == 2 and robot["bending_axes"] == 1
+    assert robot["hole_radius"] == pytest.approx(0.011, abs=1e-15)  # the mapping's key, with its unit, wins
+    np.testing.assert_allclose(rec.angles[0, 0], [np.radians(1.0), 0.0])
+    bent = pd.DataFrame({**rec.frame, "theta_2_y": [0.0, 0.01, 0.0]})
+    with pytest.raises(RecordingError, match=r"theta_2_y.*row 1.*bends about one axis"):
+        Recording(bent, rec.meta)

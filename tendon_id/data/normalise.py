@@ -171,6 +171,10 @@ def normalise_frame(frame: pd.DataFrame, meta: Mapping[str, Any], source: str | 
     frame = frame.reset_index(drop=True)
 
     n = meta.get("n_modules") or infer_n_modules(list(frame.columns))[0]
+    if n and (meta.get("robot") or {}).get("bending_axes") == 1:
+        # A hinge has no second axis: a planar robot's log may leave theta_k_y out, and it is zero.
+        missing = {f"theta_{k}_y": 0.0 for k in range(1, n + 1) if f"theta_{k}_y" not in frame.columns}
+        frame = frame.assign(**missing) if missing else frame
     if n:
         # Canonical columns first (also makes Parquet output independent of input order).
         n_tendons = tendon_count(meta.get("robot"), list(frame.columns))

@@ -35,7 +35,7 @@ from tendon_id.data.schema import (
 )
 from tendon_id.data.select import split_trajectories
 from tendon_id.data.summary import format_summary, summarise
-from tendon_id.errors import RecordingError
+from tendon_id.errors import ConfigError, RecordingError
 from tendon_id.family.registry import family_named
 
 __all__ = ["Recording"]
@@ -344,6 +344,8 @@ class Recording(FrameRecording):
         robot = self._meta["robot"] or {}
         validation.validate(self._frame, self._meta["n_modules"], source=self._source, n_tendons=robot.get("n_tendons"))
         validation.check_robot_meta(self._meta["robot"], self.n_modules, source=self._source)
+        if robot.get("bending_axes") == 1:
+            validation.check_planar(self._frame, self.n_modules, source=self._source)
 
     def check_history_window(self, h: int) -> None:
         """Check that every trajectory has at least ``h`` frames.
@@ -385,10 +387,25 @@ class Recording(FrameRecording):
 
     @classmethod
     def mapping_options(cls, doc: dict, where: str) -> dict[str, Any]:
-        """A mapping's ``[meta]`` table: the recording's metadata (``n_modules``, ``robot``)."""
-        from tendon_id.data.mapping import table
+        """A mapping's ``[meta]`` table: the recording's metadata (``n_modules``, ``robot``).
 
-        return {"meta": dict(table(doc, "meta", set(), where))}
+        ``robot`` may name a robot file (``robot = "my-robot.toml"``, read beside the mapping, or a bundled
+        robot's name), or be a table with ``file = ...`` and lengths and angles with units (:doc:`/guide/robot_file`);
+        it is stored in SI with the keys it gave.
+        """
+        from pathlib import Path
+
+        from tendon_id.data.mapping import table
+        from tendon_id.geometry import si_description
+        from tendon_id.robot_file import resolve_robot
+
+        meta = dict(table(doc, "meta", set(), where))
+        if meta.get("robot") is not None:
+            try:
+                meta["robot"] = si_description(resolve_robot(meta["robot"], base=Path(where).parent, where="robot"))
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: [meta] {exc}") from None
+        return {"meta": meta}
 
     @classmethod
     def mapped_signal(cls, column: str, options: dict[str, Any]) -> str | None:

@@ -50,6 +50,7 @@ __all__ = [
     "check_angles_in_rad",
     "check_history_window",
     "check_robot_meta",
+    "check_planar",
     "validate",
 ]
 
@@ -162,6 +163,20 @@ def check_angles_in_rad(arrays: Mapping[str, np.ndarray], *, source: str | None 
         c, row = hit
         raise RecordingError(
             f"|angle| = {abs(arrays[c][row]):g} > pi looks like degrees; angles must be in rad",
+            file=source,
+            column=c,
+            row=row,
+        )
+
+
+def check_planar(frame: pd.DataFrame, n_modules: int, *, source: str | None = None) -> None:
+    """Raise for a nonzero ``theta_k_y`` of a planar robot (``robot.bending_axes = 1``): a hinge bends towards x."""
+    arrays = {f"theta_{k}_y": float_column(frame, f"theta_{k}_y") for k in range(1, n_modules + 1)}
+    hit = first_hit(arrays, lambda a: a != 0.0)
+    if hit:
+        c, row = hit
+        raise RecordingError(
+            f"the robot bends about one axis (robot.bending_axes = 1), but theta_y is {arrays[c][row]:g} rad",
             file=source,
             column=c,
             row=row,

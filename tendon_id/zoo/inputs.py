@@ -14,7 +14,8 @@ from numpy.typing import NDArray
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, DefaultedGeometryWarning
 from tendon_id.family.inputs import FrameInputs
-from tendon_id.geometry import RobotGeometry, backbone_wrap
+from tendon_id.geometry import RobotGeometry, backbone_wrap, si_description
+from tendon_id.robot_file import resolve_robot
 from tendon_id.sliding import guide_sliding_distance
 
 
@@ -46,7 +47,8 @@ def robot_of(recordings: Sequence[Recording], robot: dict | RobotGeometry | None
         geometry = robot
     else:
         if robot is not None:
-            described = dict(robot)
+            # A robot file's name or path, or a table (maybe with file = ...), with units (:doc:`/guide/robot_file`).
+            described = si_description(resolve_robot(robot))
         else:
             metas = [r.meta.get("robot") for r in recordings]
             if any(m != metas[0] for m in metas):
