@@ -151,6 +151,13 @@ BENCHMARKS: dict[str, Benchmark] = dict(
             "tendon_id.report.regimes:write_regimes_page",
         ),
         _table(
+            "robots",
+            "robots that are not the paper's (4 and 2 tendons per set): every command, its time, held-out RMSE",
+            "tendon_id.benchmarks.robots:robots",
+            "tendon_id.benchmarks.robots:format_robots",
+            ("seed",),
+        ),
+        _table(
             "latency",
             "streaming latency per frame (paper Section IV-B), against batch inference",
             "tendon_id.benchmarks.latency:latency",
