@@ -49,6 +49,7 @@ def identifiability(
     ),
     seeds: int = typer.Option(3, "--seeds", metavar="N", help="Seeds of the learned comparison."),
     seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the samplers and the frame subset."),
+    mapping: Optional[str] = mapping_option(),
 ) -> None:
     """What terminal-only data determines: tied against per-guide laws, bands, and what to measure next."""
     from tendon_id.checks import check_count
@@ -59,7 +60,7 @@ def identifiability(
     js = check_html(out, json_out)
     check_count("seeds", seeds)
     settings = StudySettings(model=model, noise_n=noise_n, seed=seed)
-    recs = read_all(data)
+    recs = read_all(data, mapping)
     if learned:
         check_learned_inputs(recs)
     with js.lines():

@@ -1,4 +1,4 @@
-"""``tendon-id simulate`` and ``info``: a simulated recording written, any recording summarised."""
+"""``tendon-id simulate``, ``convert`` and ``info``: a recording simulated or converted, and summarised."""
 
 from __future__ import annotations
 
@@ -51,6 +51,34 @@ def simulate(
             path = rec.write(out)
         typer.echo(
             f"wrote {path}: {rec.n_frames} frames, {len(rec.trajectories)} trajectories, {rec.n_modules} modules"
+        )
+        written = js.emit({"path": str(path), **rec.describe()}, strict=True)
+        if written:
+            typer.echo(f"wrote {written}")
+
+
+@app.command()
+def convert(
+    data: list[Path] = typer.Option(
+        None, "--data", metavar="FILE", help="Your file(s) or ROS 2 bag(s), read through --mapping; repeat for several."
+    ),
+    mapping: str = typer.Option(..., "--mapping", metavar="MAP", help="The mapping file (TOML) that reads them."),
+    out: Path = typer.Option(
+        ..., "--out", metavar="FILE", help="The recording in the native format: .parquet, or .csv with a .json sidecar."
+    ),
+    json_out: Optional[str] = json_option("the recording's summary"),
+) -> None:
+    """Convert your files or ROS 2 bags, through a mapping, into one recording in the native format."""
+    check_writable(out, "--out", suffixes=(".parquet", ".csv"))
+    js = JsonOutput(json_out)
+    with js.lines():
+        with stage("reading"):
+            recs = read_all(data, mapping)
+            rec = recs[0] if len(recs) == 1 else type(recs[0]).concat(recs)
+        with stage("writing the recording"), hold_interrupt():
+            path = rec.write(out)
+        typer.echo(
+            f"wrote {path}: {rec.n_frames} frames, {len(rec.trajectories)} trajectories from {len(recs)} file(s)"
         )
         written = js.emit({"path": str(path), **rec.describe()}, strict=True)
         if written:

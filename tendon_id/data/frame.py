@@ -208,6 +208,14 @@ class FrameRecording(abc.ABC):
         return "time" if column == "t" else None
 
     @classmethod
+    def mapping_counts(cls, options: dict[str, Any]) -> tuple[int | None, int]:
+        """The module and tendon counts a mapping's patterns expand over (:mod:`tendon_id.data.patterns`).
+
+        Default: no modules (a pattern over modules is an error) and one tendon.
+        """
+        return None, 1
+
+    @classmethod
     def required_columns(cls, options: dict[str, Any]) -> tuple[str, ...]:
         """The columns a mapping must name."""
         return ("t",)

@@ -46,6 +46,8 @@ import pandas as pd
 from tendon_id.checks import check_choice, check_keys
 from tendon_id.data import rules
 from tendon_id.data.io import first_line, read_frame
+from tendon_id.data.patterns import expand_columns
+from tendon_id.data.rosbag import is_bag, read_bag
 from tendon_id.data.units import DIMENSIONS, si_factor
 from tendon_id.errors import ConfigError, RecordingError
 from tendon_id.family.registry import DEFAULT_MAPPED, family_names, family_of_meta, get_family
@@ -60,8 +62,8 @@ __all__ = ["ColumnMap", "DataMapping", "load_mapping", "read_mapped", "read_file
 #: Top-level keys every mapping may have; a family's recording class reads its own besides
 #: (:attr:`~tendon_id.data.frame.FrameRecording.mapping_keys`).
 _TOP = {"kind", "file", "columns"}
-_FILE = {"comment", "header", "delimiter", "trajectory"}
-_COLUMN = {"column", "unit", "scale", "sign"}
+_FILE = {"comment", "header", "delimiter", "trajectory", "clock"}
+_COLUMN = {"column", "unit", "scale", "sign", "topic", "field"}
 
 
 @dataclass(frozen=True)
@@ -80,13 +82,18 @@ class ColumnMap:
         ``value_SI = factor * raw`` (sign, scale and unit together).
     kind : str
         ``time``, ``angle``, ``tension`` or ``torque``.
+    topic, field : str or None
+        In a ROS 2 bag (:mod:`tendon_id.data.rosbag`): the topic and the message field
+        (``position[3]``, ``wrench.force.z``) instead of a column.
     """
 
     name: str
-    column: str | int
+    column: str | int | None
     unit: str
     factor: float
     kind: str
+    topic: str | None = None
+    field: str | None = None
 
 
 @dataclass(frozen=True)
@@ -106,6 +113,12 @@ class DataMapping:
     delimiter: str = ","
     trajectory: str | int = "file"
     options: dict = field(default_factory=dict)
+    clock: str | None = None
+
+    @property
+    def of_bags(self) -> bool:
+        """Whether the mapping reads ROS 2 bags (its columns name topics and fields)."""
+        return any(c.topic is not None for c in self.columns)
 
     @property
     def recording(self) -> type:
@@ -145,7 +158,8 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
     check_keys(doc, known, what="key", where=src)
     options = recording.mapping_options(doc, src)
     f = table(doc, "file", _FILE, src)
-    cols = table(doc, "columns", set(), src)
+    n_modules, n_tendons = recording.mapping_counts(options)
+    cols = expand_columns(table(doc, "columns", set(), src), n_modules, n_tendons, src)
     columns = []
     for name, spec in cols.items():
         where = f"{src}: columns.{name}"
@@ -157,10 +171,12 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         if not isinstance(spec, dict):
             raise ConfigError(f"{where}: expected a column name or {{ column = ..., unit = ... }}")
         check_keys(spec, _COLUMN, what="key", where=where)
-        if "column" not in spec:
+        topic, fld = _topic_field(spec, where)
+        if topic is None and "column" not in spec:
             raise ConfigError(f"{where}: no 'column' (the name or 1-based number of the file's column)")
-        column = spec["column"]
-        if isinstance(column, bool) or not isinstance(column, (str, int)) or (isinstance(column, int) and column < 1):
+        column = spec.get("column")
+        bad = isinstance(column, bool) or not isinstance(column, (str, int)) or (isinstance(column, int) and column < 1)
+        if topic is None and bad:
             raise ConfigError(f"{where}: column must be a name or a number from 1, got {column!r}")
         unit = spec.get("unit", DIMENSIONS[sk])
         scale, sign = spec.get("scale", 1.0), spec.get("sign", 1)
@@ -169,9 +185,14 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         if sign not in (1, -1) or isinstance(sign, bool):
             raise ConfigError(f"{where}: sign must be 1 or -1, got {sign!r}")
         factor = sign * float(scale) * si_factor(unit, sk, where=where)
-        columns.append(ColumnMap(name, column, str(unit), factor, sk))
+        columns.append(ColumnMap(name, column, str(unit), factor, sk, topic, fld))
     names = {c.name for c in columns}
-    missing = [n for n in recording.required_columns(options) if n not in names]
+    bags = {c.topic is not None for c in columns}
+    if len(bags) > 1:
+        raise ConfigError(f"{src}: [columns] mixes file columns and bag topics; a mapping reads one or the other")
+    # A bag's time is its messages' stamps (tendon_id.data.rosbag), not a column.
+    needed = [n for n in recording.required_columns(options) if not (True in bags and n == "t")]
+    missing = [n for n in needed if n not in names]
     if missing:
         raise ConfigError(f"{src}: [columns] does not name {', '.join(missing)}")
     return DataMapping(
@@ -183,7 +204,29 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         delimiter=str(f.get("delimiter", ",")),
         trajectory=f.get("trajectory", "file"),
         options=options,
+        clock=_clock(f, src),
     )
+
+
+def _topic_field(spec: dict, where: str) -> tuple[str | None, str | None]:
+    """A bag entry's topic and field, checked; (None, None) for a file column."""
+    if "topic" not in spec and "field" not in spec:
+        return None, None
+    if "column" in spec:
+        raise ConfigError(f"{where}: give a column (a file) or a topic and field (a ROS 2 bag), not both")
+    topic, fld = spec.get("topic"), spec.get("field")
+    if not isinstance(topic, str) or not topic.startswith("/"):
+        raise ConfigError(f"{where}: topic must be a ROS topic name such as '/joint_states', got {topic!r}")
+    if not isinstance(fld, str) or not fld:
+        raise ConfigError(f"{where}: field must name the message's field, such as 'position[0]', got {fld!r}")
+    return topic, fld
+
+
+def _clock(f: dict, where: str) -> str | None:
+    clock = f.get("clock")
+    if clock is not None and (not isinstance(clock, str) or not clock.startswith("/")):
+        raise ConfigError(f"{where}: [file] clock must be the topic whose stamps are the frames, got {clock!r}")
+    return clock
 
 
 def _read_raw(path: Path, m: DataMapping) -> pd.DataFrame:
@@ -303,6 +346,15 @@ def read_files(paths, mapping: DataMapping | None = None) -> list:
         Naming the file (and column and row) of the first problem; nothing is read past it.
     """
     paths = [Path(p) for p in paths]
+    bags = [p for p in paths if is_bag(p)]
+    if bags and (mapping is None or not mapping.of_bags):
+        why = "a mapping that names its topics and fields" if mapping is None else f"{mapping.source} to name topics"
+        raise RecordingError(f"a ROS 2 bag is read through {why} (--mapping)", file=str(bags[0]))
+    if mapping is not None and mapping.of_bags:
+        if len(bags) < len(paths):
+            other = next(p for p in paths if p not in bags)
+            raise RecordingError(f"{mapping.source} names bag topics, but this is no ROS 2 bag", file=str(other))
+        return [read_bag(p, mapping, trajectory=n) for p, n in zip(paths, trajectory_names(paths))]
     if mapping is None:
         return [read_own(p) for p in paths]
     if mapping.trajectory == "file":

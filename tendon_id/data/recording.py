@@ -408,6 +408,14 @@ class Recording(FrameRecording):
         return {"meta": meta}
 
     @classmethod
+    def mapping_counts(cls, options: dict[str, Any]) -> tuple[int | None, int]:
+        """``N`` from ``[meta] n_modules`` or its robot (None if neither says), and the robot's tendons per set."""
+        meta = options["meta"]
+        robot = meta.get("robot") or {}
+        n = meta.get("n_modules", robot.get("n_modules"))
+        return (None if n is None else int(n)), int(robot.get("n_tendons", 3))
+
+    @classmethod
     def mapped_signal(cls, column: str, options: dict[str, Any]) -> str | None:
         if column == "t":
             return "time"

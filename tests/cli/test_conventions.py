@@ -13,7 +13,18 @@ from tendon_id import progress
 from tendon_id.cli import main
 from tendon_id.cli.app import bare_json
 
-COMMANDS = ["simulate", "info", "fit", "evaluate", "calibrate", "benchmark", "identifiability", "diagnose", "demo"]
+COMMANDS = [
+    "simulate",
+    "convert",
+    "info",
+    "fit",
+    "evaluate",
+    "calibrate",
+    "benchmark",
+    "identifiability",
+    "diagnose",
+    "demo",
+]
 JSON_COMMANDS = COMMANDS  # every command takes --json PATH|-
 
 
@@ -128,6 +139,19 @@ CASES = {
         "summary.html",
     ),
     "info": (["info", "{rec}"], lambda d: d["n_frames"] == 600, "modules       12"),
+    "convert": (
+        [
+            "convert",
+            "--mapping",
+            str(Path(__file__).with_name("identity.toml")),
+            "--data",
+            "{rec}",
+            "--out",
+            "{tmp}/c.parquet",
+        ],
+        lambda d: d["n_frames"] == 600 and d["path"].endswith("c.parquet"),
+        "600 frames",
+    ),
     "evaluate": (
         ["evaluate", "--model", "{model}", "--data", "{rec}"],
         lambda d: d["model"] == "capstan-simple" and set(d["terminal"]) >= {"rmse", "r2", "max_error"},
