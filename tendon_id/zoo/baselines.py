@@ -8,8 +8,7 @@ ratio, ``ln T_hat[N, N] = ln T[1, N] + net(history)``.  Two forms (``mode``):
     The unit-level form of the paper's Table I: per frame the same ``5 + n`` inputs as a PG-CHTM
     unit at guide 1 for set 2, ``[sin(q_1) (4), cos(alpha_1), normalised T[1, 2] (n)]``
     (paper Eq. (7), ``n`` tendons per set: 8 inputs for the paper's 3), and the output is the
-    passage's ratio.  For N = 2 this is the whole
-    problem.  It is defined for N = 2 only.
+    passage's ratio.  For N = 2 this is the whole problem.  It is defined for N = 2 only.
 
 ``"end-to-end"`` (the default for N > 2)
     The raw causal input history ``X(t) = [all actuator-side tensions (nN), q(t) (2N)]``

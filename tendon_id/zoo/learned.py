@@ -240,7 +240,7 @@ class PGCHTC(GuardedCascade):
         law = np.asarray(self.prior[key], dtype=float).ravel()
         if law.shape != (n_tendons,):
             raise ConfigError(
-                f"prior.{key} needs {n_tendons} numbers (one per tendon of a set), got {law.size}", param="prior"
+                f"{key} needs {n_tendons} numbers (one per tendon of a set), got {law.size}", param="prior"
             )
         return law
 

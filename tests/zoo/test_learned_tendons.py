@@ -91,6 +91,12 @@ def test_pgchtc_units_follow_the_tendon_count(pgchtc, data):
     assert pgchtc._state()[0]["n_tendons"] == n_t
 
 
+def test_pgchtc_asks_for_one_prior_number_per_tendon(data):
+    train, _ = data
+    with pytest.raises(ConfigError, match=f"prior: A needs {train.n_tendons} numbers"):
+        zoo.make("pg-chtc", preset="tiny", progress=False, prior={"A": [0.1] * 3, "B": [0.2] * 3}).fit(train)
+
+
 def test_pgchtc_refuses_another_tendon_count(pgchtc, data):
     train, _ = data
     other = _recording(2 if train.n_tendons == 4 else 4, "planned-paths", 40, 2)  # 6 modules too
