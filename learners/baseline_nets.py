@@ -28,7 +28,8 @@ class BaselineConfig:
     ----------
     kind : {"mlp", "lstm", "transformer"}
     n_inputs : int
-        Channels per frame (8 for the unit-level form, 5N end to end).
+        Channels per frame (``5 + n`` for the unit-level form, ``(n + 2) N`` end to end: 8 and 5N for
+        the paper's three tendons).
     hidden : tuple of int
         MLP hidden widths (paper preset: 512/512/256, as ``f_theta``).
     lstm_hidden, lstm_layers : int
@@ -37,6 +38,8 @@ class BaselineConfig:
         Transformer sizes (paper preset: 128, 4, 3, 256, as ``g_phi``: about 400 k).
     window : int
         Frames each Transformer layer attends to (the current one and ``window - 1`` before).
+    n_tendons : int
+        Tendons per set ``n``: the width of the output, one log ratio per tendon (the paper's 3).
     """
 
     kind: str
@@ -49,12 +52,15 @@ class BaselineConfig:
     n_layers: int = 3
     d_ff: int = 256
     window: int = 20
+    n_tendons: int = 3
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"unknown baseline {self.kind!r}; known: {', '.join(KINDS)}")
         if self.n_inputs < 1 or self.window < 1 or self.d_model % self.n_heads:
             raise ValueError("n_inputs and window must be >= 1 and d_model divisible by n_heads")
+        if self.n_tendons < 1:
+            raise ValueError("n_tendons must be >= 1")
 
     @property
     def sequential(self) -> bool:
@@ -146,32 +152,34 @@ PRESETS: dict[str, BaselinePreset] = {
 }
 
 
-def baseline_config(kind: str, preset: str, n_inputs: int, window: int = 20) -> tuple[BaselineConfig, Schedule]:
-    """The architecture and schedule of baseline ``kind`` in a named preset."""
+def baseline_config(
+    kind: str, preset: str, n_inputs: int, window: int = 20, n_tendons: int = 3
+) -> tuple[BaselineConfig, Schedule]:
+    """The architecture and schedule of baseline ``kind`` in a named preset, for ``n_tendons`` outputs."""
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; known: {', '.join(PRESETS)}")
     p = PRESETS[preset]
-    cfg = BaselineConfig(kind=kind, n_inputs=int(n_inputs), window=int(window), **p.arch)
+    cfg = BaselineConfig(kind=kind, n_inputs=int(n_inputs), window=int(window), n_tendons=int(n_tendons), **p.arch)
     return cfg, (p.sequence if cfg.sequential else p.static)
 
 
 # ---- modules ------------------------------------------------------------------------------------
 class _MLPCore(nn.Module):
-    def __init__(self, n_in: int, hidden: tuple[int, ...]):
+    def __init__(self, n_in: int, hidden: tuple[int, ...], n_out: int):
         super().__init__()
         self.body, width = gelu_mlp_body(n_in, hidden)
-        self.head = nn.Linear(width, 3)
+        self.head = nn.Linear(width, n_out)
 
     def forward(self, x: Tensor, valid: Tensor | None = None) -> Tensor:
         flat = x.reshape(-1, x.shape[-1])
-        return self.head(self.body(flat)).reshape(*x.shape[:-1], 3)
+        return self.head(self.body(flat)).reshape(*x.shape[:-1], self.head.out_features)
 
 
 class _LSTMCore(nn.Module):
-    def __init__(self, n_in: int, hidden: int, layers: int):
+    def __init__(self, n_in: int, hidden: int, layers: int, n_out: int):
         super().__init__()
         self.lstm = nn.LSTM(n_in, hidden, num_layers=layers, batch_first=True)
-        self.head = nn.Linear(hidden, 3)
+        self.head = nn.Linear(hidden, n_out)
 
     def forward(self, x: Tensor, valid: Tensor | None = None) -> Tensor:
         h, _ = self.lstm(x)  # zero initial state: the start of a trajectory (or of a chunk)
@@ -186,7 +194,7 @@ class _TransformerCore(nn.Module):
             SlidingWindowLayer(cfg.d_model, cfg.n_heads, cfg.window, cfg.d_ff) for _ in range(cfg.n_layers)
         )
         self.norm = nn.LayerNorm(cfg.d_model)
-        self.head = nn.Linear(cfg.d_model, 3)
+        self.head = nn.Linear(cfg.d_model, cfg.n_tendons)
 
     def forward(self, x: Tensor, valid: Tensor) -> Tensor:
         h = self.embed(x)
@@ -198,7 +206,7 @@ class _TransformerCore(nn.Module):
 class BaselineNet(nn.Module):
     """A black-box regressor of the terminal log ratio ``ln T[N, N] - ln T[1, N]``.
 
-    ``forward(x, since_start)`` maps raw inputs ``x`` (B, L, F) to log ratios (B, L, 3);
+    ``forward(x, since_start)`` maps raw inputs ``x`` (B, L, F) to log ratios (B, L, n), one per tendon;
     ``since_start`` (B, L) counts the frames of history available to each frame (only the
     Transformer reads it; the LSTM starts from a zero state at ``L``'s first frame).
     """
@@ -207,9 +215,9 @@ class BaselineNet(nn.Module):
         super().__init__()
         self.cfg = cfg
         if cfg.kind == "mlp":
-            self.core: nn.Module = _MLPCore(cfg.n_inputs, cfg.hidden)
+            self.core: nn.Module = _MLPCore(cfg.n_inputs, cfg.hidden, cfg.n_tendons)
         elif cfg.kind == "lstm":
-            self.core = _LSTMCore(cfg.n_inputs, cfg.lstm_hidden, cfg.lstm_layers)
+            self.core = _LSTMCore(cfg.n_inputs, cfg.lstm_hidden, cfg.lstm_layers, cfg.n_tendons)
         else:
             self.core = _TransformerCore(cfg)
         # Start at the training mean (a zero head), as g_phi starts at "no residual".
@@ -217,8 +225,8 @@ class BaselineNet(nn.Module):
         nn.init.zeros_(self.core.head.bias)
         self.register_buffer("x_mean", torch.zeros(cfg.n_inputs))
         self.register_buffer("x_std", torch.ones(cfg.n_inputs))
-        self.register_buffer("y_mean", torch.zeros(3))
-        self.register_buffer("y_std", torch.ones(3))
+        self.register_buffer("y_mean", torch.zeros(cfg.n_tendons))
+        self.register_buffer("y_std", torch.ones(cfg.n_tendons))
 
     def forward(self, x: Tensor, since_start: Tensor | None = None) -> Tensor:
         z = (x - self.x_mean) / self.x_std

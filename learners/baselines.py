@@ -5,9 +5,9 @@ Each is a black-box regressor of the terminal set's log transmission ratio
 ``ln T_hat[N, N] = ln T[1, N] + output`` (the log domain of the paper's Eq. (16)); the
 training loss is the data term of Eq. (12), ``||ln T_hat[N, N] - ln T[N, N]||^2``
 summed over tendons and averaged over frames.  There is no physics prior, no
-smoothness term and no guide structure: whatever the inputs are (the 8 unit inputs of
-a single passage, or the 5N raw inputs ``X(t)`` of the whole robot), only the terminal
-label is fitted.
+smoothness term and no guide structure: whatever the inputs are (the ``5 + n`` unit inputs of
+a single passage, or the ``(n + 2) N`` raw inputs ``X(t)`` of the whole robot), only the terminal
+label is fitted.  Every output has one log ratio per tendon of the set (``n``, the paper's 3).
 
 * ``mlp``: static, the current frame only; Linear → BatchNorm1d → GELU per hidden layer,
   like ``f_theta``.
@@ -26,7 +26,7 @@ presets and schedules are built in :mod:`learners.baseline_nets` and re-exported
 
 Training runs the loop shared with PG-CHTC (:mod:`learners.loop`): AdamW with cosine
 learning-rate annealing and early stopping on validation trajectories (best weights
-restored).  It works on arrays handed in by the caller, one pair ``(x (T_i, F), y (T_i, 3))``
+restored).  It works on arrays handed in by the caller, one pair ``(x (T_i, F), y (T_i, n))``
 per trajectory.
 """
 
@@ -109,7 +109,7 @@ def _recurrent_threads(net: BaselineNet, device: torch.device) -> Iterator[None]
 @dataclass
 class _Padded:
     x: Tensor  # (B, L, F)
-    y: Tensor  # (B, L, 3)
+    y: Tensor  # (B, L, n)
     lengths: Tensor  # (B,), on the CPU
 
     @property
@@ -118,11 +118,11 @@ class _Padded:
         return ar[None, :] < self.lengths.to(self.x.device)[:, None]
 
 
-def _pad(xs: Sequence[np.ndarray], ys: Sequence[np.ndarray] | None, device) -> _Padded:
+def _pad(xs: Sequence[np.ndarray], ys: Sequence[np.ndarray] | None, device, n_out: int) -> _Padded:
     L = max(len(a) for a in xs)
     f = xs[0].shape[1]
     x = np.zeros((len(xs), L, f), dtype=np.float32)
-    y = np.zeros((len(xs), L, 3), dtype=np.float32)
+    y = np.zeros((len(xs), L, n_out), dtype=np.float32)
     for i, a in enumerate(xs):
         x[i, : len(a)] = a
         x[i, len(a) :] = a[-1]  # finite padding, masked out (and after the real frames: causal models ignore it)
@@ -153,7 +153,7 @@ def _groups(lengths: Sequence[int], max_frames: int) -> list[list[int]]:
 
 @torch.no_grad()
 def predict_log_ratio(net: BaselineNet, xs: Sequence[np.ndarray], *, max_frames: int = 65536) -> list[np.ndarray]:
-    """Log ratios (T_i, 3) for whole trajectories ``xs`` (T_i, F), each from its first frame.
+    """Log ratios (T_i, n) for whole trajectories ``xs`` (T_i, F), each from its first frame.
 
     Sequence models run causally over each whole trajectory (the LSTM statefully); groups
     of trajectories are batched up to ``max_frames`` padded frames.
@@ -165,7 +165,7 @@ def predict_log_ratio(net: BaselineNet, xs: Sequence[np.ndarray], *, max_frames:
 
 
 def _predict(net: BaselineNet, xs: Sequence[np.ndarray], max_frames: int, p: Tensor) -> list[np.ndarray]:
-    out: list[np.ndarray] = [np.empty((0, 3))] * len(xs)
+    out: list[np.ndarray] = [np.empty((0, net.cfg.n_tendons))] * len(xs)
     for group in _groups([len(a) for a in xs], max_frames):
         if net.cfg.kind == "mlp":  # frame by frame: no padding needed
             x = torch.as_tensor(np.concatenate([xs[i] for i in group]), dtype=p.dtype, device=p.device)
@@ -174,7 +174,7 @@ def _predict(net: BaselineNet, xs: Sequence[np.ndarray], max_frames: int, p: Ten
             for k, i in enumerate(group):
                 out[i] = y[bounds[k] : bounds[k + 1]]
             continue
-        pad = _pad([xs[i] for i in group], None, p.device)
+        pad = _pad([xs[i] for i in group], None, p.device, net.cfg.n_tendons)
         y = net(pad.x).double().cpu().numpy()
         for k, i in enumerate(group):
             out[i] = y[k, : len(xs[i])]
@@ -231,7 +231,7 @@ def train_baseline(
     ----------
     net : BaselineNet
         Its normalisation should already be fitted (:func:`fit_normalisation`).
-    train, val : (list of ndarray (T_i, F), list of ndarray (T_i, 3))
+    train, val : (list of ndarray (T_i, F), list of ndarray (T_i, n))
         Inputs and target log ratios, one array per trajectory. Without ``val`` the model
         trains for ``schedule.epochs`` epochs and keeps its last weights.
     schedule : Schedule
@@ -261,8 +261,9 @@ def train_baseline(
 def _train(net: BaselineNet, train, val, schedule: Schedule, seed: int, device: torch.device, progress) -> TrainHistory:
     rng = np.random.default_rng(seed)
     gen = torch.Generator().manual_seed(seed)
-    tr = _pad(train[0], train[1], device)
-    va = _pad(val[0], val[1], device) if val is not None and len(val[0]) else None
+    n_out = net.cfg.n_tendons
+    tr = _pad(train[0], train[1], device, n_out)
+    va = _pad(val[0], val[1], device, n_out) if val is not None and len(val[0]) else None
     lengths = tr.lengths.tolist()
     if not net.cfg.sequential:  # every real frame on its own
         fx, fy = tr.x[tr.mask], tr.y[tr.mask]

@@ -13,7 +13,7 @@ import torch
 from torch import Tensor, nn
 
 from learners.presets import UnitConfig
-from learners.unit import N_FEATURES, PGCHTMUnit
+from learners.unit import N_GEOMETRY, PGCHTMUnit, n_features
 
 
 @dataclass
@@ -26,8 +26,8 @@ class CascadeInputs:
         ``sin`` of the adjacent joint angles ``q_k = (theta_k, theta_{k+1})`` (paper Eq. (2)).
     alpha : Tensor, shape (B, L, N-1)
         Backbone wrap of each guide [rad] (paper Eq. (3)).
-    log_actuator : Tensor, shape (B, L, S, 3)
-        ``ln T[1, j, i]`` of the sets to propagate.
+    log_actuator : Tensor, shape (B, L, S, n)
+        ``ln T[1, j, i]`` of the sets to propagate, ``n`` tendons per set.
     since_start : Tensor of int, shape (B, L)
         Frames since the start of the trajectory (or of the chunk, if later): how far back
         the temporal residual may look.
@@ -56,8 +56,8 @@ def normalised_geometry(sin_q: Tensor, alpha: Tensor, mean: Tensor, std: Tensor)
         ``sin`` of the adjacent joint angles of each guide.
     alpha : Tensor, shape (...)
         The guide's wrap angle [rad].
-    mean, std : Tensor, shape (8,)
-        The channel normalisation fitted on training data.
+    mean, std : Tensor, shape (5 + n,)
+        The channel normalisation fitted on training data (its first 5 channels are read).
 
     Returns
     -------
@@ -73,16 +73,17 @@ def normalised_geometry(sin_q: Tensor, alpha: Tensor, mean: Tensor, std: Tensor)
     """
     d = torch.float64
     x = torch.cat([sin_q.to(d), torch.cos(alpha.to(d))[..., None]], dim=-1)
-    return ((x - mean[:5].to(d)) / std[:5].to(d)).to(mean.dtype)
+    return ((x - mean[:N_GEOMETRY].to(d)) / std[:N_GEOMETRY].to(d)).to(mean.dtype)
 
 
 def normalised_tensions(log_t: Tensor, mean: Tensor, std: Tensor) -> Tensor:
-    """The tension inputs of paper Eq. (7) from ``ln T`` (..., 3) [ln N], channel-normalised, in ``mean``'s dtype.
+    """The tension inputs of paper Eq. (7) from ``ln T`` (..., n) [ln N], channel-normalised, in ``mean``'s dtype.
 
-    Computed in float64, for the reason given in :func:`normalised_geometry`.
+    ``mean`` and ``std`` have ``5 + n`` channels, the tensions' last. Computed in float64, for the
+    reason given in :func:`normalised_geometry`.
     """
     d = torch.float64
-    return ((torch.exp(log_t.to(d)) - mean[5:].to(d)) / std[5:].to(d)).to(mean.dtype)
+    return ((torch.exp(log_t.to(d)) - mean[N_GEOMETRY:].to(d)) / std[N_GEOMETRY:].to(d)).to(mean.dtype)
 
 
 class Cascade(nn.Module):
@@ -95,17 +96,20 @@ class Cascade(nn.Module):
     cfg : UnitConfig
     tied : bool
         One unit for every guide (the paper), or one per guide (identifiability comparison).
+    n_tendons : int
+        Tendons per set ``n`` (the paper's 3): each unit reads ``5 + n`` inputs and gives ``n`` ratios.
     """
 
-    def __init__(self, n_guides: int, cfg: UnitConfig, tied: bool = True):
+    def __init__(self, n_guides: int, cfg: UnitConfig, tied: bool = True, n_tendons: int = 3):
         super().__init__()
         self.n_guides = n_guides
         self.cfg = cfg
         self.tied = tied
-        self.units = nn.ModuleList(PGCHTMUnit(cfg) for _ in range(1 if tied else n_guides))
-        # Channel normalisation of the 8 unit inputs, fitted on training data (paper §III-C).
-        self.register_buffer("feature_mean", torch.zeros(N_FEATURES))
-        self.register_buffer("feature_std", torch.ones(N_FEATURES))
+        self.n_tendons = int(n_tendons)
+        self.units = nn.ModuleList(PGCHTMUnit(cfg, self.n_tendons) for _ in range(1 if tied else n_guides))
+        # Channel normalisation of the 5 + n unit inputs, fitted on training data (paper §III-C).
+        self.register_buffer("feature_mean", torch.zeros(n_features(self.n_tendons)))
+        self.register_buffer("feature_std", torch.ones(n_features(self.n_tendons)))
 
     def unit(self, g: int) -> PGCHTMUnit:
         return self.units[0 if self.tied else g]
@@ -123,9 +127,9 @@ class Cascade(nn.Module):
 
         Returns
         -------
-        log_joint : Tensor of float64, shape (B, L, S, 3)
+        log_joint : Tensor of float64, shape (B, L, S, n)
             ``ln T_hat[j, j, i]`` of each set.
-        log_ratio : Tensor, shape (B, L, N-1, S, 3)
+        log_ratio : Tensor, shape (B, L, N-1, S, n)
             ``ln r_data`` per guide (0 where the set does not pass the guide).
         """
         b, L = inp.log_actuator.shape[:2]
@@ -143,17 +147,18 @@ class Cascade(nn.Module):
             x_t = log_t[:, :, active]
             x = torch.cat(
                 [
-                    geo[:, :, g, None, :].expand(*x_t.shape[:-1], 5),
+                    geo[:, :, g, None, :].expand(*x_t.shape[:-1], N_GEOMETRY),
                     normalised_tensions(x_t, self.feature_mean, self.feature_std),
                 ],
                 dim=-1,
-            )  # (B, L, Sa, 8)
+            )  # (B, L, Sa, 5 + n)
             unit = self.unit(g)
             lr = torch.log(unit.backbone(x))
             if residual and unit.residual is not None:
                 sa = x.shape[2]
                 seq = x.permute(0, 2, 1, 3).reshape(b * sa, L, -1)
-                r_tr = unit.residual(seq, valid.repeat_interleave(sa, dim=0)).reshape(b, sa, L, 3).permute(0, 2, 1, 3)
+                r_tr = unit.residual(seq, valid.repeat_interleave(sa, dim=0))
+                r_tr = r_tr.reshape(b, sa, L, self.n_tendons).permute(0, 2, 1, 3)
                 lr = lr + torch.log1p(r_tr)
             lr = lr.clamp(-LOG_RATIO_BOUND, LOG_RATIO_BOUND)
             log_t = log_t.clone()
@@ -256,7 +261,7 @@ class StreamingCascade:
         x_t = log_actuator[1:]  # float64, as in Cascade.forward
         k = 0
         for g in range(c.n_guides):
-            x = torch.cat([geo[g].expand(x_t.shape[0], 5), normalised_tensions(x_t, mean, std)], dim=1)
+            x = torch.cat([geo[g].expand(x_t.shape[0], N_GEOMETRY), normalised_tensions(x_t, mean, std)], dim=1)
             lr = torch.log(self._backbone(g, x))
             unit = c.unit(g)
             if unit.residual is not None:
@@ -290,7 +295,7 @@ class StreamingCascade:
         example = (
             torch.zeros(n - 1, 4, **f64),
             torch.zeros(n - 1, **f64),
-            torch.zeros(n, 3, **f64),
+            torch.zeros(n, c.n_tendons, **f64),
             self._slot[0],
             self._lag[0],
             self._invalid[0][0],
@@ -308,13 +313,13 @@ class StreamingCascade:
 
     @torch.inference_mode()
     def step(self, sin_q: Tensor, alpha: Tensor, log_actuator: Tensor) -> Tensor:
-        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame, float64 of shape (N, 3).
+        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame, float64 of shape (N, n).
 
         Parameters
         ----------
         sin_q : Tensor, shape (N-1, 4)
         alpha : Tensor, shape (N-1,)
-        log_actuator : Tensor, shape (N, 3)
+        log_actuator : Tensor, shape (N, n)
             Any floating dtype; the features and the chain are computed in float64, the units in theirs.
         """
         f64 = lambda t: t.to(torch.float64)  # noqa: E731

@@ -26,7 +26,7 @@ from friction_models.play_state import N_STATE
 from learners.cascade import LOG_RATIO_BOUND, normalised_geometry, normalised_tensions
 from learners.loop import LoopSchedule, TrainHistory, run_training
 from learners.loss import LossWeights, pgchtc_loss
-from learners.unit import N_FEATURES
+from learners.unit import N_GEOMETRY, n_features
 
 
 @dataclass(frozen=True)
@@ -51,25 +51,31 @@ class CorrectionConfig:
         if not self.bound > 0:
             raise ValueError("the correction's bound must be positive")
 
-    @property
-    def n_inputs(self) -> int:
-        """The paper's 8 unit inputs, plus the state of the guide's three tendons."""
-        return N_FEATURES + (3 * N_STATE if self.state_inputs else 0)
+    def inputs_for(self, n_tendons: int) -> int:
+        """Inputs of the unit for ``n`` tendons per set: the paper's ``5 + n`` (Eq. (7)), plus the state of the
+        guide's ``n`` tendons (8 + 12 for the paper's 3)."""
+        return n_features(n_tendons) + (int(n_tendons) * N_STATE if self.state_inputs else 0)
 
 
 class CorrectionUnit(nn.Module):
-    """``delta = bound * tanh(f(x))``: a GELU MLP with a zero head, so that it starts at no correction."""
+    """``delta = bound * tanh(f(x))``: a GELU MLP with a zero head, so that it starts at no correction.
 
-    def __init__(self, cfg: CorrectionConfig):
+    ``n_tendons`` (``n``) sets its width: ``n_inputs`` (:meth:`CorrectionConfig.inputs_for`) in, one correction
+    per tendon out.
+    """
+
+    def __init__(self, cfg: CorrectionConfig, n_tendons: int = 3):
         super().__init__()
         self.cfg = cfg
+        self.n_tendons = int(n_tendons)
+        self.n_inputs = cfg.inputs_for(self.n_tendons)
         layers: list[nn.Module] = []
-        width = cfg.n_inputs
+        width = self.n_inputs
         for h in cfg.hidden:
             layers += [nn.Linear(width, h), nn.GELU()]
             width = h
         self.body = nn.Sequential(*layers)
-        self.head = nn.Linear(width, 3)
+        self.head = nn.Linear(width, self.n_tendons)
         nn.init.zeros_(self.head.weight)
         nn.init.zeros_(self.head.bias)
 
@@ -87,11 +93,11 @@ class CorrectionInputs:
         ``sin`` of the adjacent joint angles of each guide (paper Eq. (2)).
     alpha : Tensor, shape (F, K)
         Backbone wrap [rad] (paper Eq. (3)).
-    log_actuator : Tensor of float64, shape (F, S, 3)
-        ``ln T[1, j, i]`` of the sets to propagate.
-    prior_log_ratio : Tensor of float64, shape (F, K, S, 3)
+    log_actuator : Tensor of float64, shape (F, S, n)
+        ``ln T[1, j, i]`` of the sets to propagate, ``n`` tendons per set.
+    prior_log_ratio : Tensor of float64, shape (F, K, S, n)
         The prior's ``ln r`` at every guide (0 where a set does not pass it).
-    state : Tensor, shape (F, K, S, 3, 4)
+    state : Tensor, shape (F, K, S, n, 4)
         The prior's play-operator state at every guide.
     """
 
@@ -121,28 +127,31 @@ class CorrectedCascade(nn.Module):
     cfg : CorrectionConfig
     tied : bool
         One unit for every guide, or one per guide.
+    n_tendons : int
+        Tendons per set ``n`` (the paper's 3).
     """
 
-    def __init__(self, n_guides: int, cfg: CorrectionConfig, tied: bool = True):
+    def __init__(self, n_guides: int, cfg: CorrectionConfig, tied: bool = True, n_tendons: int = 3):
         super().__init__()
         self.n_guides = n_guides
         self.cfg = cfg
         self.tied = tied
-        self.units = nn.ModuleList(CorrectionUnit(cfg) for _ in range(1 if tied else n_guides))
-        self.register_buffer("feature_mean", torch.zeros(N_FEATURES))
-        self.register_buffer("feature_std", torch.ones(N_FEATURES))
+        self.n_tendons = int(n_tendons)
+        self.units = nn.ModuleList(CorrectionUnit(cfg, self.n_tendons) for _ in range(1 if tied else n_guides))
+        self.register_buffer("feature_mean", torch.zeros(n_features(self.n_tendons)))
+        self.register_buffer("feature_std", torch.ones(n_features(self.n_tendons)))
 
     def unit(self, g: int) -> CorrectionUnit:
         return self.units[0 if self.tied else g]
 
     def unit_input(self, geo: Tensor, log_t: Tensor, state: Tensor) -> Tensor:
-        """The unit's input at one guide: geometry (..., 5), ``ln T`` entering it (..., S, 3), state (..., S, 3, 4)."""
+        """The unit's input at one guide: geometry (..., 5), ``ln T`` entering it (..., S, n), state (..., S, n, 4)."""
         parts = [
-            geo[..., None, :].expand(*log_t.shape[:-1], 5),
+            geo[..., None, :].expand(*log_t.shape[:-1], N_GEOMETRY),
             normalised_tensions(log_t, self.feature_mean, self.feature_std),
         ]
         if self.cfg.state_inputs:
-            parts.append(state.reshape(*state.shape[:-2], 3 * N_STATE).to(self.feature_mean.dtype))
+            parts.append(state.reshape(*state.shape[:-2], self.n_tendons * N_STATE).to(self.feature_mean.dtype))
         return torch.cat(parts, dim=-1)
 
     def forward(self, inp: CorrectionInputs, sets: Tensor) -> tuple[Tensor, Tensor]:
@@ -156,9 +165,9 @@ class CorrectedCascade(nn.Module):
 
         Returns
         -------
-        log_joint : Tensor of float64, shape (F, S, 3)
+        log_joint : Tensor of float64, shape (F, S, n)
             ``ln T_hat[j, j, i]``.
-        log_ratio : Tensor of float64, shape (F, K, S, 3)
+        log_ratio : Tensor of float64, shape (F, K, S, n)
             ``ln r`` per guide (0 where a set does not pass it).
         """
         log_t = inp.log_actuator.to(torch.float64)
@@ -217,7 +226,7 @@ def train_correction(
     """Train the correction units on frames of the terminal set with the paper's loss (Eqs. (11)–(15)).
 
     The prior term is measured against the nonsmooth prior, so it is ``lambda sum_k delta_k^2``.
-    ``train`` and ``val`` are ``(inputs of the terminal set only, ln T[N, N] labels (F, 3))``.
+    ``train`` and ``val`` are ``(inputs of the terminal set only, ln T[N, N] labels (F, n))``.
     Early stopping keeps the best epoch, and the untrained cascade (the prior itself) counts as
     epoch 0: a correction that does not lower the validation loss is not kept.
     """

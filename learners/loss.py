@@ -30,11 +30,11 @@ def pgchtc_loss(
 
     Parameters
     ----------
-    log_terminal_hat, log_terminal : Tensor, shape (..., 3)
-        ``ln T_hat[N, N]`` and the label ``ln T[N, N]`` (Eq. (12)).
-    log_ratio : Tensor, shape (..., N-1, 3)
+    log_terminal_hat, log_terminal : Tensor, shape (..., n)
+        ``ln T_hat[N, N]`` and the label ``ln T[N, N]`` (Eq. (12)), ``n`` tendons (summed over).
+    log_ratio : Tensor, shape (..., N-1, n)
         ``ln r_data`` of the terminal set at every guide.
-    log_ratio_phys : Tensor, shape (..., N-1, 3)
+    log_ratio_phys : Tensor, shape (..., N-1, n)
         Capstan prior ``ln r_phys = -mu(alpha) alpha`` (Eqs. (9), (13)).
     alpha : Tensor, shape (..., N-1)
         Wraps, for the smoothness kernel ``w_k = exp(-eta_w (alpha_k - alpha_{k+1})^2)`` (Eq. (15)).

@@ -21,6 +21,9 @@
  * calling thread runs f_theta, meeting once per guide step.  Each part does the same arithmetic in the same
  * order either way, so one and two threads give the same bits.
  *
+ * A set has n = cfg[C_N_TENDONS] tendons (the paper's 3): a unit reads n_in = 5 + n inputs per row,
+ * [sin q_k (4), cos alpha_k, normalised T (n)], and gives n ratios.
+ *
  * Layouts (float32 unless said, C order):
  *   units[u]  : one unit's parameters, in the order the Python packer writes them
  *               (learners/streaming_pack.py, pack_unit).
@@ -43,7 +46,14 @@
 
 #include "streaming_gemm.h"
 
-enum { C_N_SETS, C_N_GUIDES, C_TIED, C_N_HIDDEN, C_HIDDEN0, C_RESIDUAL = C_HIDDEN0 + 4, C_D, C_H, C_WINDOW, C_FF, C_LAYERS, C_LEN };
+/* The configuration vector (learners/streaming_native.py, CONFIG_FIELDS, in this order).  C_N_TENDONS came
+ * last, so that the other fields kept their places. */
+enum { C_N_SETS, C_N_GUIDES, C_TIED, C_N_HIDDEN, C_HIDDEN0, C_RESIDUAL = C_HIDDEN0 + 4, C_D, C_H, C_WINDOW, C_FF, C_LAYERS,
+       C_N_TENDONS, C_LEN };
+
+#define N_GEOMETRY 5 /* sin q_k (4), cos alpha_k: the geometric unit inputs of paper Eq. (7) */
+
+static inline int n_inputs(const int *cfg) { return N_GEOMETRY + cfg[C_N_TENDONS]; }
 
 /* erf(x) as a branch-free rational function on VL lanes at once (libm's erff is a scalar call per
  * element: 1.65 against 1.07 ms per frame for the paper preset, with the same agreement with
@@ -149,23 +159,30 @@ static float softplus(float x) { return x > 20.f ? x : log1pf(expf(x)); } /* tor
 
 /* The widest activation of a unit: sizes the scratch buffers. */
 static int widest(const int *cfg) {
-    int w = 8;
+    int w = n_inputs(cfg);
     for (int i = 0; i < cfg[C_N_HIDDEN]; i++) w = cfg[C_HIDDEN0 + i] > w ? cfg[C_HIDDEN0 + i] : w;
     if (3 * cfg[C_D] > w) w = 3 * cfg[C_D];
     return cfg[C_FF] > w ? cfg[C_FF] : w;
 }
 
-/* f_theta of a guide step: ln r_MLP (M, 3) into ratio (paper Eq. (8), its first factor).
- * x: the normalised unit inputs (M, 8) of paper Eq. (7).  buf: 2 * M * widest(cfg) floats. */
-/* noinline: the calling thread and the helper run the very same machine code, so one and
- * two threads give the same bits whatever the compiler would inline where. */
-__attribute__((noinline)) static void backbone_step(const int *cfg, params_t U, const float *x, int M, float *buf, float *ratio) {
+/* The unit steps come in two copies: one for the paper's n = 3, where the tendon count and the input
+ * width are compile-time constants, and one for any n.  Why: how GCC vectorises a Linear layer's sums
+ * and which products it fuses into FMAs (-ffp-contract=fast, its default for gnu11) depends on the
+ * constants it sees, so a run-time 3 rounds differently in the last bits from the kernel before n was a
+ * parameter (measured: 1 880 of 4 320 outputs moved); the constant copy keeps those results bit for bit.
+ * Each body is written once (always_inline) and instantiated in both. */
+#define ALWAYS_INLINE static inline __attribute__((always_inline))
+
+/* f_theta of a guide step: ln r_MLP (M, nt) into ratio (paper Eq. (8), its first factor).
+ * x: the normalised unit inputs (M, n_in) of paper Eq. (7).  buf: 2 * M * widest(cfg) floats. */
+ALWAYS_INLINE void backbone_body(const int *cfg, params_t U, const float *x, int M, float *buf, float *ratio, int n_in,
+                                 int nt) {
     const float *P = U.f;
     int n_hidden = cfg[C_N_HIDDEN], wide = widest(cfg);
     float *a = buf, *b = buf + (size_t)M * wide;
     /* (Linear [BN folded] -> GELU) per hidden layer, then Linear -> softplus + 0.01 */
     const float *in = x;
-    int K = 8;
+    int K = n_in;
     for (int i = 0; i < n_hidden; i++) {
         int N = cfg[C_HIDDEN0 + i];
         float *out = (i % 2) ? b : a;
@@ -174,23 +191,42 @@ __attribute__((noinline)) static void backbone_step(const int *cfg, params_t U, 
         gelu(out, (size_t)M * N);
         in = out, K = N;
     }
-    linear(in, M, K, U, P, P + (size_t)K * 3, 3, ratio);
-    for (int i = 0; i < M * 3; i++) ratio[i] = logf(softplus(ratio[i]) + 0.01f);
+    linear(in, M, K, U, P, P + (size_t)K * nt, nt, ratio);
+    for (int i = 0; i < M * nt; i++) ratio[i] = logf(softplus(ratio[i]) + 0.01f);
 }
 
-/* g_phi of a guide step: the temporal head's pre-tanh output (M, 3) into tr, reading and
+/* noinline: the calling thread and the helper run the very same machine code, so one and
+ * two threads give the same bits whatever the compiler would inline where. */
+__attribute__((noinline)) static void backbone_step_3(const int *cfg, params_t U, const float *x, int M, float *buf,
+                                                      float *ratio) {
+    backbone_body(cfg, U, x, M, buf, ratio, N_GEOMETRY + 3, 3);
+}
+
+__attribute__((noinline)) static void backbone_step_n(const int *cfg, params_t U, const float *x, int M, float *buf,
+                                                      float *ratio) {
+    backbone_body(cfg, U, x, M, buf, ratio, n_inputs(cfg), cfg[C_N_TENDONS]);
+}
+
+static void backbone_step(const int *cfg, params_t U, const float *x, int M, float *buf, float *ratio) {
+    if (cfg[C_N_TENDONS] == 3)
+        backbone_step_3(cfg, U, x, M, buf, ratio);
+    else
+        backbone_step_n(cfg, U, x, M, buf, ratio);
+}
+
+/* g_phi of a guide step: the temporal head's pre-tanh output (M, nt) into tr, reading and
  * updating the guide's ring caches at `slot`.  P: the unit's g_phi parameters, which follow
  * f_theta's (backbone_floats) in a packed unit.
  * buf: M * (2 * widest(cfg) + d_model) floats. */
-__attribute__((noinline)) static void residual_step(const int *cfg, params_t U, const float *P, const float *x, int M,
-                                                    float *cache, int slot, int seen, float *buf, float *tr) {
+ALWAYS_INLINE void residual_body(const int *cfg, params_t U, const float *P, const float *x, int M, float *cache, int slot,
+                                 int seen, float *buf, float *tr, int n_in, int nt) {
     int wide = widest(cfg);
     int D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
     float *a = buf, *b = buf + (size_t)M * wide, *h = b + (size_t)M * wide;
     int dk = D / H;
     float scale = 1.0f / sqrtf((float)dk);
-    linear(x, M, 8, U, P, P + 8 * D, D, h); /* embed */
-    P += 8 * D + D;
+    linear(x, M, n_in, U, P, P + (size_t)n_in * D, D, h); /* embed */
+    P += (size_t)n_in * D + D;
     for (int l = 0; l < cfg[C_LAYERS]; l++) {
         const float *ln1g = P, *ln1b = P + D, *Wqkv = P + 2 * D, *bqkv = Wqkv + (size_t)D * 3 * D;
         const float *Wo = bqkv + 3 * D, *bo = Wo + (size_t)D * D, *lag_bias = bo + D;
@@ -256,12 +292,30 @@ __attribute__((noinline)) static void residual_step(const int *cfg, params_t U, 
     }
     layer_norm(h, M, D, P, P + D, a);
     P += 2 * D;
-    linear(a, M, D, U, P, P + (size_t)D * 3, 3, tr);
+    linear(a, M, D, U, P, P + (size_t)D * nt, nt, tr);
 }
 
-/* ln r = clamp(ln r_MLP + ln(1 + 0.5 tanh(tr))) (paper Eq. (8)), added to log_t (M, 3, float64). */
-static void add_log_ratio(const float *ratio, const float *tr, int M, float bound, double *log_t) {
-    for (int i = 0; i < M * 3; i++) {
+__attribute__((noinline)) static void residual_step_3(const int *cfg, params_t U, const float *P, const float *x, int M,
+                                                      float *cache, int slot, int seen, float *buf, float *tr) {
+    residual_body(cfg, U, P, x, M, cache, slot, seen, buf, tr, N_GEOMETRY + 3, 3);
+}
+
+__attribute__((noinline)) static void residual_step_n(const int *cfg, params_t U, const float *P, const float *x, int M,
+                                                      float *cache, int slot, int seen, float *buf, float *tr) {
+    residual_body(cfg, U, P, x, M, cache, slot, seen, buf, tr, n_inputs(cfg), cfg[C_N_TENDONS]);
+}
+
+static void residual_step(const int *cfg, params_t U, const float *P, const float *x, int M, float *cache, int slot,
+                          int seen, float *buf, float *tr) {
+    if (cfg[C_N_TENDONS] == 3)
+        residual_step_3(cfg, U, P, x, M, cache, slot, seen, buf, tr);
+    else
+        residual_step_n(cfg, U, P, x, M, cache, slot, seen, buf, tr);
+}
+
+/* ln r = clamp(ln r_MLP + ln(1 + 0.5 tanh(tr))) (paper Eq. (8)), added to log_t (M, n, float64). */
+static void add_log_ratio(const float *ratio, const float *tr, int M, int nt, float bound, double *log_t) {
+    for (int i = 0; i < M * nt; i++) {
         float v = tr ? ratio[i] + log1pf(0.5f * tanhf(tr[i])) : ratio[i];
         v = v < -bound ? -bound : (v > bound ? bound : v);
         log_t[i] += (double)v;
@@ -273,16 +327,17 @@ static size_t scratch_floats(const int *cfg, int M) { return (size_t)M * (2 * wi
 
 /* Floats of f_theta's parameters, at the start of a packed unit. */
 static long backbone_floats(const int *cfg) {
-    long n = 0, K = 8;
+    long n = 0, K = n_inputs(cfg), nt = cfg[C_N_TENDONS];
     for (int i = 0; i < cfg[C_N_HIDDEN]; i++) n += K * cfg[C_HIDDEN0 + i] + cfg[C_HIDDEN0 + i], K = cfg[C_HIDDEN0 + i];
-    return n + K * 3 + 3;
+    return n + K * nt + nt;
 }
 
 /* Floats in one unit's packed parameters (the Python packer checks its layout against this). */
 long pgchtc_unit_floats(const int *cfg) {
     long n = backbone_floats(cfg), D = cfg[C_D], F = cfg[C_FF], H = cfg[C_H], W = cfg[C_WINDOW];
+    long n_in = n_inputs(cfg), nt = cfg[C_N_TENDONS];
     if (cfg[C_RESIDUAL])
-        n += 8 * D + D + cfg[C_LAYERS] * (2 * D + D * 3 * D + 3 * D + D * D + D + H * W + 2 * D + D * F + F + F * D + D) + 2 * D + D * 3 + 3;
+        n += n_in * D + D + cfg[C_LAYERS] * (2 * D + D * 3 * D + 3 * D + D * D + D + H * W + 2 * D + D * F + F + F * D + D) + 2 * D + D * nt + nt;
     return n;
 }
 
@@ -405,9 +460,9 @@ void pgchtc_helper_free(void *helper) {
     free(hp);
 }
 
-/* The frame: ln T_hat of every set at its own joint, written to out (n_sets, 3).
- * Inputs and output in float64: norm, the feature mean (8) then std (8); sin_q (n_sets - 1, 4);
- * alpha (n_sets - 1); log_act and out (n_sets, 3).  seen: min(frames already seen, window - 1).
+/* The frame: ln T_hat of every set at its own joint, written to out (n_sets, n).
+ * Inputs and output in float64: norm, the feature mean (n_in) then std (n_in); sin_q (n_sets - 1, 4);
+ * alpha (n_sets - 1); log_act and out (n_sets, n).  seen: min(frames already seen, window - 1).
  * threads: 1, or 2 to run g_phi on the helper thread (pgchtc_helper_new) beside f_theta (same result).
  * half_units: NULL, or per unit a binary16 copy of units[u] whose matrices the products read
  * (streaming_gemm.h says why).
@@ -416,27 +471,30 @@ void pgchtc_helper_free(void *helper) {
 int pgchtc_frame(const int *cfg, const float *const *units, const uint16_t *const *half_units, const double *norm, float bound, const double *sin_q,
                  const double *alpha, const double *log_act, int slot, int seen, float *const *caches, double *out,
                  int threads, void *helper) {
-    int n = cfg[C_N_SETS], G = cfg[C_N_GUIDES], residual = cfg[C_RESIDUAL];
+    int n = cfg[C_N_SETS], G = cfg[C_N_GUIDES], residual = cfg[C_RESIDUAL], nt = cfg[C_N_TENDONS], n_in = n_inputs(cfg);
     int M0 = n - 1;
     size_t part = scratch_floats(cfg, M0);
-    float *buf = malloc(sizeof(float) * (2 * part + (size_t)M0 * (8 + 3 + 3)));
-    double *log_t = malloc(sizeof(double) * (size_t)M0 * 3);
+    float *buf = malloc(sizeof(float) * (2 * part + (size_t)M0 * (n_in + nt + nt)));
+    double *log_t = malloc(sizeof(double) * (size_t)M0 * nt);
     if (!buf || !log_t) { free(buf); free(log_t); return 1; }
-    float *x = buf + 2 * part, *ratio = x + (size_t)M0 * 8, *tr = ratio + (size_t)M0 * 3;
+    float *x = buf + 2 * part, *ratio = x + (size_t)M0 * n_in, *tr = ratio + (size_t)M0 * nt;
     helper_t *hp = helper;
     int two = residual && threads >= 2 && M0 > 0 && hp;
     if (two) {
         hp->cfg = cfg, hp->units = units, hp->half_units = half_units, hp->caches = caches;
         hp->slot = slot, hp->seen = seen, hp->x = x, hp->buf = buf + part, hp->tr = tr;
     }
-    memcpy(out, log_act, 3 * sizeof(double)); /* set 1 passes no guide */
-    memcpy(log_t, log_act + 3, (size_t)M0 * 3 * sizeof(double));
+    memcpy(out, log_act, nt * sizeof(double)); /* set 1 passes no guide */
+    memcpy(log_t, log_act + nt, (size_t)M0 * nt * sizeof(double));
     int M = M0;
     for (int g = 0; g < G && M > 0; g++) {
-        double geo[5] = {sin_q[4 * g], sin_q[4 * g + 1], sin_q[4 * g + 2], sin_q[4 * g + 3], cos(alpha[g])};
+        double geo[N_GEOMETRY] = {sin_q[4 * g], sin_q[4 * g + 1], sin_q[4 * g + 2], sin_q[4 * g + 3], cos(alpha[g])};
         for (int s = 0; s < M; s++) { /* normalised in float64, then rounded (see the header) */
-            for (int i = 0; i < 5; i++) x[s * 8 + i] = (float)((geo[i] - norm[i]) / norm[8 + i]);
-            for (int i = 0; i < 3; i++) x[s * 8 + 5 + i] = (float)((exp(log_t[s * 3 + i]) - norm[5 + i]) / norm[13 + i]);
+            float *xs = x + (size_t)s * n_in;
+            for (int i = 0; i < N_GEOMETRY; i++) xs[i] = (float)((geo[i] - norm[i]) / norm[n_in + i]);
+            for (int i = 0; i < nt; i++)
+                xs[N_GEOMETRY + i] =
+                    (float)((exp(log_t[s * nt + i]) - norm[N_GEOMETRY + i]) / norm[n_in + N_GEOMETRY + i]);
         }
         params_t unit = unit_params(cfg, units, half_units, g);
         if (two) {
@@ -449,9 +507,9 @@ int pgchtc_frame(const int *cfg, const float *const *units, const uint16_t *cons
             backbone_step(cfg, unit, x, M, buf, ratio);
             if (residual) residual_step(cfg, unit, unit.f + backbone_floats(cfg), x, M, caches[g], slot, seen, buf + part, tr);
         }
-        add_log_ratio(ratio, residual ? tr : NULL, M, bound, log_t);
-        memcpy(out + 3 * (g + 1), log_t, 3 * sizeof(double)); /* set g + 2 is final after guide g + 1 */
-        memmove(log_t, log_t + 3, (size_t)(M - 1) * 3 * sizeof(double));
+        add_log_ratio(ratio, residual ? tr : NULL, M, nt, bound, log_t);
+        memcpy(out + (size_t)nt * (g + 1), log_t, nt * sizeof(double)); /* set g + 2 is final after guide g + 1 */
+        memmove(log_t, log_t + nt, (size_t)(M - 1) * nt * sizeof(double));
         M--;
     }
     free(buf);

@@ -41,10 +41,13 @@ import torch
 from learners.cascade import LOG_RATIO_BOUND, Cascade
 from learners.streaming_pack import WEIGHT_FORMATS, as_f32, half_copy, pack_unit
 from learners.thread_choice import ThreadChooser
+from learners.unit import n_features
 
 SOURCE = Path(__file__).with_name("streaming_kernel.c")
 HEADER = SOURCE.with_name("streaming_gemm.h")  # included by SOURCE: its matrix products
-#: The kernel's configuration vector, in the order of its ``C_*`` enum.
+#: The kernel's configuration vector, in the order of its ``C_*`` enum.  ``n_tendons`` came last, so the
+#: others kept their places; a kernel built from an older source is rebuilt anyway (the cache is keyed by
+#: the source's hash) and one that does not match is refused (``pgchtc_cfg_len``).
 CONFIG_FIELDS = (
     "n_sets",
     "n_guides",
@@ -60,6 +63,7 @@ CONFIG_FIELDS = (
     "window",
     "d_ff",
     "n_layers",
+    "n_tendons",
 )
 MAX_HIDDEN = 4
 _FLAG_SETS = (
@@ -207,19 +211,23 @@ def available_cpus() -> int:
 HELPER_THREAD_MIN_MACS = 100_000
 
 
-def unit_macs(cfg) -> tuple[int, int]:
-    """Multiply-adds per row of ``f_theta`` and ``g_phi`` (0 without a residual), the Linear layers only."""
-    widths = (8, *cfg.hidden, 3)
+def unit_macs(cfg, n_tendons: int = 3) -> tuple[int, int]:
+    """Multiply-adds per row of ``f_theta`` and ``g_phi`` (0 without a residual), the Linear layers only.
+
+    ``n_tendons`` (``n``) sets the units' input (``5 + n``) and output (``n``) widths.
+    """
+    n_in = n_features(n_tendons)
+    widths = (n_in, *cfg.hidden, n_tendons)
     backbone = sum(a * b for a, b in zip(widths[:-1], widths[1:]))
     if not cfg.temporal_residual:
         return backbone, 0
     d, f = cfg.d_model, cfg.d_ff
-    return backbone, 8 * d + cfg.n_layers * (3 * d * d + d * d + 2 * d * f) + 3 * d
+    return backbone, n_in * d + cfg.n_layers * (3 * d * d + d * d + 2 * d * f) + n_tendons * d
 
 
-def helper_thread_pays(cfg) -> bool:
+def helper_thread_pays(cfg, n_tendons: int = 3) -> bool:
     """Whether computing g_phi on a helper thread beside f_theta is worth it for this unit size."""
-    f, g = unit_macs(cfg)
+    f, g = unit_macs(cfg, n_tendons)
     return min(f, g) >= HELPER_THREAD_MIN_MACS
 
 
@@ -281,7 +289,7 @@ class NativeStreamingCascade:
         if why:
             raise KernelUnavailable(why)
         if threads is None:
-            threads = "auto" if helper_thread_pays(cascade.cfg) and available_cpus() >= 2 else 1
+            threads = "auto" if helper_thread_pays(cascade.cfg, cascade.n_tendons) and available_cpus() >= 2 else 1
         if threads not in (1, 2, "auto"):
             raise ValueError(f"threads must be 1, 2 or 'auto', got {threads!r}")
         if weights not in WEIGHT_FORMATS:
@@ -311,10 +319,11 @@ class NativeStreamingCascade:
                 cfg.window,
                 cfg.d_ff,
                 cfg.n_layers,
+                cascade.n_tendons,
             ],
             dtype=np.int32,
         )
-        self.n_sets, self.window = n_sets, cfg.window
+        self.n_sets, self.window, self.n_tendons = n_sets, cfg.window, cascade.n_tendons
         self.units = [pack_unit(u, self.lib.pgchtc_panel_width()) for u in cascade.units]
         expected = self.lib.pgchtc_unit_floats(self.config.ctypes.data)
         if any(u.size != expected for u in self.units):  # the packer and the kernel disagree on the layout
@@ -330,7 +339,7 @@ class NativeStreamingCascade:
         self._unit_ptrs, self._cache_ptrs = ptrs(self.units), ptrs(self.caches)
         self.half_units = [half_copy(u, i) for i, u in enumerate(self.units)] if weights == "float16" else []
         self._half_ptrs = ptrs(self.half_units) if self.half_units else None
-        self._out = np.empty((n_sets, 3), np.float64)
+        self._out = np.empty((n_sets, self.n_tendons), np.float64)
         # addresses of the arrays the engine keeps, taken once (each .ctypes costs about a microsecond)
         self._config_ptr, self._norm_ptr, self._out_ptr = (a.ctypes.data for a in (self.config, self.norm, self._out))
         self.reset()
@@ -355,7 +364,7 @@ class NativeStreamingCascade:
         self.n_seen = 0
 
     def step(self, sin_q: np.ndarray, alpha: np.ndarray, log_actuator: np.ndarray) -> np.ndarray:
-        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame, float64 of shape (N, 3).
+        """Joint-side ``ln T_hat[j, j, :]`` of all sets for one frame, float64 of shape (N, n).
 
         Parameters
         ----------
@@ -363,16 +372,16 @@ class NativeStreamingCascade:
             ``sin`` of the adjacent joint angles of each guide.
         alpha : array, shape (N-1,)
             Backbone wrap of each guide [rad].
-        log_actuator : array, shape (N, 3)
-            ``ln`` of the actuator-side tensions [ln N].
+        log_actuator : array, shape (N, n)
+            ``ln`` of the actuator-side tensions [ln N], ``n`` tendons per set.
         """
-        n = self.n_sets
+        n, n_t = self.n_sets, self.n_tendons
         sin_q = np.ascontiguousarray(sin_q, dtype=np.float64)
         alpha = np.ascontiguousarray(alpha, dtype=np.float64)
         log_actuator = np.ascontiguousarray(log_actuator, dtype=np.float64)
-        if sin_q.shape != (n - 1, 4) or alpha.shape != (n - 1,) or log_actuator.shape != (n, 3):
+        if sin_q.shape != (n - 1, 4) or alpha.shape != (n - 1,) or log_actuator.shape != (n, n_t):
             raise ValueError(
-                f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, 3); "
+                f"expected sin_q ({n - 1}, 4), alpha ({n - 1},), log_actuator ({n}, {n_t}); "
                 f"got {sin_q.shape}, {alpha.shape}, {log_actuator.shape}"
             )
         if self._wants_helper and (self._helper is None or self._pid != os.getpid()):

@@ -34,8 +34,9 @@ class Sequences:
     ----------
     inputs : CascadeInputs
         Shapes (C, L, ...): C chunks of L frames.
-    log_terminal : Tensor, shape (C, L, 3)
-    log_ratio_phys : Tensor, shape (C, L, N-1, 3)
+    log_terminal : Tensor, shape (C, L, n)
+        ``ln T[N, N]`` of the ``n`` tendons.
+    log_ratio_phys : Tensor, shape (C, L, N-1, n)
     mask : Tensor of bool, shape (C, L)
         Real (not padding) frames.
     """
@@ -227,10 +228,22 @@ def train_two_stage(
 
 
 def fit_feature_norm(cascade: Cascade, sin_q: np.ndarray, alpha: np.ndarray, tensions: np.ndarray) -> None:
-    """Channel normalisation of the unit inputs from training data (paper §III-C)."""
+    """Channel normalisation of the unit inputs from training data (paper §III-C).
+
+    Parameters
+    ----------
+    cascade : Cascade or CorrectedCascade
+        Its ``feature_mean`` and ``feature_std`` (``5 + n`` channels) are set; ``n`` is its ``n_tendons``.
+    sin_q : ndarray, shape (..., 4)
+        ``sin`` of the adjacent joint angles of each guide.
+    alpha : ndarray
+        Wraps [rad].
+    tensions : ndarray, shape (..., n)
+        Tensions [N] the units read, one column per tendon.
+    """
     sq = sin_q.reshape(-1, 4)
     ca = np.cos(alpha).reshape(-1, 1)
-    t = tensions.reshape(-1, 3)
+    t = tensions.reshape(-1, cascade.n_tendons)
     mean = np.r_[sq.mean(0), ca.mean(0), t.mean(0)]
     std = np.r_[sq.std(0), ca.std(0), t.std(0)]
     std = np.where(std > 1e-8, std, 1.0)

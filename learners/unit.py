@@ -20,8 +20,17 @@ from torch.nn import functional as F
 
 from learners.presets import UnitConfig
 
-N_FEATURES = 8  # [sin(q_k) (4), cos(alpha_k) (1), normalised T_k (3)], paper Eq. (7)
+#: Geometric unit inputs of paper Eq. (7), ``[sin(q_k) (4), cos(alpha_k) (1)]``; the tensions follow them.
+N_GEOMETRY = 5
 EPSILON = 0.01  # paper: r_MLP = softplus(.) + 0.01
+
+
+def n_features(n_tendons: int) -> int:
+    """Unit inputs of paper Eq. (7) for ``n_tendons`` tendons per set: the geometry, then one tension per tendon.
+
+    ``[sin(q_k) (4), cos(alpha_k) (1), normalised T_k (n)]``: 8 for the paper's three tendons.
+    """
+    return N_GEOMETRY + int(n_tendons)
 
 
 def gelu_mlp_body(n_in: int, hidden: tuple[int, ...]) -> tuple[nn.Sequential, int]:
@@ -35,18 +44,27 @@ def gelu_mlp_body(n_in: int, hidden: tuple[int, ...]) -> tuple[nn.Sequential, in
 
 
 class StaticBackbone(nn.Module):
-    """``f_theta``: Linear → BatchNorm1d → GELU per hidden layer, then softplus + 0.01 (paper §IV-B)."""
+    """``f_theta``: Linear → BatchNorm1d → GELU per hidden layer, then softplus + 0.01 (paper §IV-B).
 
-    def __init__(self, hidden: tuple[int, ...] = (512, 512, 256)):
+    Parameters
+    ----------
+    hidden : tuple of int
+        Widths of the hidden layers.
+    n_tendons : int
+        Tendons per set ``n``: ``n_features(n)`` inputs, one ratio per tendon out.
+    """
+
+    def __init__(self, hidden: tuple[int, ...] = (512, 512, 256), n_tendons: int = 3):
         super().__init__()
-        self.body, width = gelu_mlp_body(N_FEATURES, hidden)
-        self.head = nn.Linear(width, 3)
+        self.n_tendons = int(n_tendons)
+        self.body, width = gelu_mlp_body(n_features(self.n_tendons), hidden)
+        self.head = nn.Linear(width, self.n_tendons)
 
     def forward(self, x: Tensor) -> Tensor:
-        """Ratios ``r_MLP > 0.01``, shape ``x.shape[:-1] + (3,)``."""
-        flat = x.reshape(-1, N_FEATURES)
+        """Ratios ``r_MLP > 0.01`` [-], shape ``x.shape[:-1] + (n,)``."""
+        flat = x.reshape(-1, n_features(self.n_tendons))
         out = self.head(self.body(flat))
-        return (F.softplus(out) + EPSILON).reshape(*x.shape[:-1], 3)
+        return (F.softplus(out) + EPSILON).reshape(*x.shape[:-1], self.n_tendons)
 
 
 class SlidingWindowAttention(nn.Module):
@@ -148,22 +166,26 @@ class SlidingWindowLayer(nn.Module):
 
 
 class TemporalResidual(nn.Module):
-    """``g_phi``: pre-norm causal Transformer layers with sliding-window attention; ``0.5 tanh`` head."""
+    """``g_phi``: pre-norm causal Transformer layers with sliding-window attention; ``0.5 tanh`` head.
 
-    def __init__(self, cfg: UnitConfig):
+    ``n_tendons`` (``n``) sets its width: ``n_features(n)`` inputs per frame, one residual per tendon out.
+    """
+
+    def __init__(self, cfg: UnitConfig, n_tendons: int = 3):
         super().__init__()
         self.cfg = cfg
-        self.embed = nn.Linear(N_FEATURES, cfg.d_model)
+        self.n_tendons = int(n_tendons)
+        self.embed = nn.Linear(n_features(self.n_tendons), cfg.d_model)
         self.layers = nn.ModuleList(
             SlidingWindowLayer(cfg.d_model, cfg.n_heads, cfg.window, cfg.d_ff) for _ in range(cfg.n_layers)
         )
         self.norm = nn.LayerNorm(cfg.d_model)
-        self.head = nn.Linear(cfg.d_model, 3)
+        self.head = nn.Linear(cfg.d_model, self.n_tendons)
         nn.init.zeros_(self.head.weight)  # start as "no residual": r_TR = 0
         nn.init.zeros_(self.head.bias)
 
     def forward(self, x: Tensor, valid: Tensor) -> Tensor:
-        """``r_TR`` for every frame of sequences ``x`` (B, L, 8), shape (B, L, 3)."""
+        """``r_TR`` for every frame of sequences ``x`` (B, L, 5 + n), shape (B, L, n)."""
         h = self.embed(x)
         for layer in self.layers:
             h = layer(h, valid)
@@ -174,7 +196,7 @@ class TemporalResidual(nn.Module):
         return [layer.attn.ring_bias(lag_of_slot, invalid) for layer in self.layers]
 
     def step(self, x: Tensor, cache: list[Tensor], slot: Tensor, biases: list[Tensor]) -> Tensor:
-        """``r_TR`` of one new frame per stream (S, 8), writing its keys and values into the ring ``cache``.
+        """``r_TR`` (S, n) of one new frame per stream (S, 5 + n), writing its keys and values into the ring ``cache``.
 
         ``cache`` holds each layer's keys and values, ``[k_1, v_1, k_2, v_2, ...]``, as made
         by :meth:`empty_cache`; ``biases`` come from :meth:`ring_biases`.
@@ -199,10 +221,14 @@ class TemporalResidual(nn.Module):
 
 
 class PGCHTMUnit(nn.Module):
-    """One physics-guided cable-hole transmission unit: ``r_data = (1 + r_TR) r_MLP`` (paper Eq. (8))."""
+    """One physics-guided cable-hole transmission unit: ``r_data = (1 + r_TR) r_MLP`` (paper Eq. (8)).
 
-    def __init__(self, cfg: UnitConfig):
+    It maps a guide's ``n_features(n)`` inputs (paper Eq. (7)) to one ratio per tendon of the set.
+    """
+
+    def __init__(self, cfg: UnitConfig, n_tendons: int = 3):
         super().__init__()
         self.cfg = cfg
-        self.backbone = StaticBackbone(cfg.hidden)
-        self.residual = TemporalResidual(cfg) if cfg.temporal_residual else None
+        self.n_tendons = int(n_tendons)
+        self.backbone = StaticBackbone(cfg.hidden, self.n_tendons)
+        self.residual = TemporalResidual(cfg, self.n_tendons) if cfg.temporal_residual else None

@@ -37,8 +37,8 @@ def learned_comparison(
     ----------
     views : sequence of Recording
         Training data without intermediate truth.
-    truth : ndarray, shape (T, N, 3), or None
-        Joint-side truth [N] to score against (None: no error is reported).
+    truth : ndarray, shape (T, N, n), or None
+        Joint-side truth [N] to score against, ``n`` tendons per set (None: no error is reported).
     seeds, preset : int, str
         Seeds per tying and the PG-CHTC preset.
     progress : bool, optional

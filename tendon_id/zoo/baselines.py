@@ -5,13 +5,13 @@ data term of the paper's Eq. (12) in the log domain: each predicts the terminal 
 ratio, ``ln T_hat[N, N] = ln T[1, N] + net(history)``.  Two forms (``mode``):
 
 ``"unit"`` (the default for a single-passage rig, N = 2)
-    The unit-level form of the paper's Table I: per frame the same 8 inputs as a PG-CHTM
-    unit at guide 1 for set 2, ``[sin(q_1) (4), cos(alpha_1), normalised T[1, 2] (3)]``
-    (paper Eq. (7)), and the output is the passage's ratio.  For N = 2 this is the whole
-    problem.  It is defined for N = 2 only.
+    The unit-level form of the paper's Table I: per frame the same ``5 + n`` inputs as a PG-CHTM
+    unit at guide 1 for set 2, ``[sin(q_1) (4), cos(alpha_1), normalised T[1, 2] (n)]``
+    (paper Eq. (7), ``n`` tendons per set: 8 inputs for the paper's 3), and the output is the
+    passage's ratio.  For N = 2 this is the whole problem.  It is defined for N = 2 only.
 
 ``"end-to-end"`` (the default for N > 2)
-    The raw causal input history ``X(t) = [all actuator-side tensions (3N), q(t) (2N)]``
+    The raw causal input history ``X(t) = [all actuator-side tensions (nN), q(t) (2N)]``
     (paper Section III-A) to the terminal joint side ``T[N, N]``.  Trained on terminal
     labels only, a black box has no estimate for the intermediate joints ``2..N-1``:
     ``predict`` returns their actuator side there (the proximal hypothesis, no loss), so
@@ -19,7 +19,9 @@ ratio, ``ln T_hat[N, N] = ln T[1, N] + net(history)``.  Two forms (``mode``):
     black boxes cannot resolve intermediate joints from terminal-only labels.
 
 ``predict_chain`` is correspondingly the proximal chain (``T[k, j] = T[1, j]`` on every
-path, NaN off the path) with ``T[N, N]`` replaced by the estimate.
+path, NaN off the path) with ``T[N, N]`` replaced by the estimate.  The output has one log
+ratio per tendon: a model fitted on ``n`` tendons per set predicts ``n`` and reads only data
+with ``n`` (its ``n_tendons_``).
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.geometry import RobotGeometry, sin_q
 from tendon_id.progress import epoch_progress
 from tendon_id.zoo.base import TransmissionModel
+from tendon_id.zoo.features import check_tendon_count
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 from tendon_id.zoo.neural import load_weights, resolve_device, weights_array
 
@@ -85,6 +88,8 @@ class _Baseline(TransmissionModel):
     mode_ : str
         ``"unit"`` or ``"end-to-end"``.
     n_parameters_ : int
+    n_tendons_ : int
+        Tendons per set of the training data (the output's width).
     history_ : dict
         Per-epoch train and validation losses, the best validation loss and its epoch.
     """
@@ -125,7 +130,7 @@ class _Baseline(TransmissionModel):
 
     @staticmethod
     def _features(inp: TransmissionInputs, mode: str) -> np.ndarray:
-        """Per-frame inputs (T, F): 8 unit inputs (unit form) or ``X(t)`` (5N, end to end)."""
+        """Per-frame inputs (T, F): ``5 + n`` unit inputs (unit form) or ``X(t)`` (``(n + 2) N``, end to end)."""
         if mode == "unit":  # paper Eq. (7) at guide 1 for set 2 (normalised inside the network)
             # No calibrated prior, so no routing wrap: the joints' part of the wrap (never the metadata's alpha_0).
             wrap = inp.wrap_at(0.0)
@@ -169,10 +174,11 @@ class _Baseline(TransmissionModel):
             train, val = allrec.split((1.0 - self.val_fraction, self.val_fraction), seed=self.seed)
         else:
             train, val = allrec, None
-        n = allrec.n_modules
+        n, n_t = allrec.n_modules, allrec.n_tendons
         mode = self._resolve_mode(n)
+        n_inputs = 5 + n_t if mode == "unit" else (n_t + 2) * n  # see _features
         try:
-            cfg, schedule = baseline_config(self.kind, self.preset, 8 if mode == "unit" else 5 * n, self.window)
+            cfg, schedule = baseline_config(self.kind, self.preset, n_inputs, self.window, n_tendons=n_t)
         except ValueError as exc:
             raise ConfigError(f"{self.name}: {exc}") from None
         self.geometry_ = TransmissionInputs.from_recordings([train], self.robot).geometry
@@ -205,14 +211,21 @@ class _Baseline(TransmissionModel):
         }
         return self
 
+    @property
+    def n_tendons_(self) -> int:
+        """Tendons per set the model was fitted on (3 for a model saved before the count was stored)."""
+        self.check_fitted()
+        return int(self.net_.cfg.n_tendons)
+
     def _check(self, data) -> list[Recording]:
         recs = self._check_data(data)
+        check_tendon_count(recs, self.n_tendons_, self.name)
         for r in recs:
             r.check_history_window(self.history_frames)
         return recs
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
-        """``T[k, j, i]`` [N], shape (T, N, N, 3): the proximal chain with ``T[N, N]`` estimated.
+        """``T[k, j, i]`` [N], shape (T, N, N, n): the proximal chain with ``T[N, N]`` estimated.
 
         NaN where ``k > j``.
         """
@@ -221,7 +234,7 @@ class _Baseline(TransmissionModel):
         log_ratio = predict_log_ratio(self.net_, xs)
         act = inp.actuator
         n = inp.n_modules
-        chain = np.broadcast_to(act[:, None], (inp.n_frames, n, n, 3)).copy()  # no estimate: actuator side
+        chain = np.broadcast_to(act[:, None], (inp.n_frames, n, n, act.shape[-1])).copy()  # no estimate: actuator side
         for (s, e), lr in zip(bounds, log_ratio):
             chain[s:e, n - 1, n - 1] = act[s:e, n - 1] * np.exp(lr)
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
@@ -233,7 +246,7 @@ class _Baseline(TransmissionModel):
             "n_modules": self.n_modules_,
             "mode": self.mode_,
             "geometry": self.geometry_.to_dict(),
-            "config": asdict(self.net_.cfg),
+            "config": _config_doc(self.net_.cfg),
             "n_parameters": self.n_parameters_,
             "history": self.history_,
         }
@@ -248,6 +261,15 @@ class _Baseline(TransmissionModel):
         self.net_ = load_weights(build_baseline(BaselineConfig(**cfg)), arrays)
         self.n_parameters_ = int(state.get("n_parameters", count_parameters(self.net_)))
         self.history_ = state.get("history", {})
+
+
+def _config_doc(cfg: BaselineConfig) -> dict:
+    """``cfg`` as saved: the paper's tendon count left out, so that a 3-tendon model's files are as they were
+    before the count existed (and a file without it loads as 3, the field's default)."""
+    doc = asdict(cfg)
+    if doc["n_tendons"] == 3:
+        del doc["n_tendons"]
+    return doc
 
 
 class MLPBaseline(_Baseline):

@@ -119,8 +119,8 @@ def kind_breakdown(
 
     Parameters
     ----------
-    cascade, prior, labels : ndarray, shape (T, 3)
-        Terminal predictions of the cascade and of its prior, and the labels [N].
+    cascade, prior, labels : ndarray, shape (T, n)
+        Terminal predictions of the cascade and of its prior, and the labels [N], ``n`` tendons per set.
     trajectories : sequence of TrajectoryKind
         Every trajectory's kind and frames (:func:`~tendon_id.zoo.motion_kind.trajectory_kinds`).
 
@@ -266,7 +266,7 @@ class GuardedCascade(TransmissionModel):
         return mask if mask.any() else None
 
     def _prior_where_worse(self, recs: list[Recording], chain: np.ndarray) -> np.ndarray:
-        """``chain`` (T, N, N, 3) with the prior's on the trajectories of the kinds that fall back."""
+        """``chain`` (T, N, N, n) with the prior's on the trajectories of the kinds that fall back."""
         mask = self._prior_frames(recs)
         if mask is not None:
             chain[mask] = self.prior_model_.predict_chain(recs)[mask]

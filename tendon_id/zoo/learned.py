@@ -17,7 +17,7 @@ from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.geometry import RobotGeometry, sin_q
 from tendon_id.progress import epoch_progress
-from tendon_id.zoo.features import padded_unit_inputs
+from tendon_id.zoo.features import check_tendon_count, padded_unit_inputs
 from tendon_id.zoo.guard import GuardedCascade
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 from tendon_id.zoo.neural import load_weights, resolve_device, weights_array
@@ -45,8 +45,9 @@ class PGCHTC(GuardedCascade):
         Where the capstan prior's ``(A_i, B_i)`` (Eq. (9)) come from: a zoo model name
         calibrated on the training split (default ``"capstan-nonsmooth"``, the best physics
         baseline, as the paper takes its prior from its calibrated baseline), or an explicit
-        ``{"A": [3 numbers], "B": [3 numbers]}``, optionally with the routing wrap ``"alpha_0"``
-        (default 0) and the clearance ``"alpha_c"`` [rad] (default: from the robot's measured sizes).
+        ``{"A": [n numbers], "B": [n numbers]}`` (one per tendon of a set), optionally with the routing
+        wrap ``"alpha_0"`` (default 0) and the clearance ``"alpha_c"`` [rad] (default: from the robot's
+        measured sizes).
     window : int, optional
         History window ``h`` [frames]; default the preset's (20).
     val_fraction : float
@@ -69,7 +70,9 @@ class PGCHTC(GuardedCascade):
     Attributes
     ----------
     cascade_ : learners.Cascade
-    prior_A_, prior_B_ : ndarray, shape (3,)
+    n_tendons_ : int
+        Tendons per set ``n`` of the training data: the units' widths follow it (paper Eq. (7)).
+    prior_A_, prior_B_ : ndarray, shape (n,)
         The capstan prior's law (Eq. (9)), calibrated on the training split.
     history_ : dict
         Per-epoch train and validation losses of both stages.
@@ -143,10 +146,11 @@ class PGCHTC(GuardedCascade):
         c, L = arr["alpha"].shape[:2]
         alpha = inp.wrap_at(self.alpha_0_)
         phys = -(A * np.cos(alpha)[..., None] + B) * alpha[..., None]  # ln r_phys, Eq. (9)
+        n_t = inp.actuator.shape[-1]
         arr.update(
             since=np.zeros((c, L), dtype=np.int64),
-            term=np.zeros((c, L, 3)),
-            phys=np.zeros((c, L, n - 1, 3)),
+            term=np.zeros((c, L, n_t)),
+            phys=np.zeros((c, L, n - 1, n_t)),
             mask=np.zeros((c, L), dtype=bool),
         )
         since_all = np.rint(inp.since_start / inp.dt).astype(np.int64)
@@ -189,9 +193,9 @@ class PGCHTC(GuardedCascade):
         device = resolve_device(self.device, float64=True)
         self.geometry_ = TransmissionInputs.from_recordings([train], self.robot).geometry
         self.n_modules_ = allrec.n_modules
+        n_t = allrec.n_tendons
         if isinstance(self.prior, dict):
-            self.prior_A_ = np.asarray(self.prior["A"], dtype=float).reshape(3)
-            self.prior_B_ = np.asarray(self.prior["B"], dtype=float).reshape(3)
+            self.prior_A_, self.prior_B_ = (self._prior_law(k, n_t) for k in ("A", "B"))
             # No fitted geometry: the routing wrap given, else 0; the clearance given, else the robot's sizes'.
             given = {"routing": {"alpha_0": float(self.prior.get("alpha_0", 0.0))}}
             if "alpha_c" in self.prior:
@@ -204,12 +208,12 @@ class PGCHTC(GuardedCascade):
             self.prior_A_, self.prior_B_ = law.A_[0].copy(), law.B_[0].copy()
         self.prior_model_ = law
         tr_inp = self._inputs([train], self.geometry_)
-        cascade = Cascade(self.n_modules_ - 1, cfg, tied=bool(self.tied))
+        cascade = Cascade(self.n_modules_ - 1, cfg, tied=bool(self.tied), n_tendons=n_t)
         fit_feature_norm(
             cascade,
             sin_q(tr_inp.angles),
             tr_inp.wrap_at(self.alpha_0_),
-            np.concatenate([tr_inp.actuator.reshape(-1, 3), tr_inp.terminal]),
+            np.concatenate([tr_inp.actuator.reshape(-1, n_t), tr_inp.terminal]),
         )
         cascade.to(device)
         tc = get_preset(self.preset).train
@@ -231,6 +235,21 @@ class PGCHTC(GuardedCascade):
         self._guard(val)
         return self
 
+    def _prior_law(self, key: str, n_tendons: int) -> np.ndarray:
+        """``prior[key]`` (``"A"`` or ``"B"``) as one number per tendon, else a ConfigError that says how many."""
+        law = np.asarray(self.prior[key], dtype=float).ravel()
+        if law.shape != (n_tendons,):
+            raise ConfigError(
+                f"{key} needs {n_tendons} numbers (one per tendon of a set), got {law.size}", param="prior"
+            )
+        return law
+
+    @property
+    def n_tendons_(self) -> int:
+        """Tendons per set the model was fitted on (3 for a model saved before the count was stored)."""
+        self.check_fitted()
+        return int(self.cascade_.n_tendons)
+
     def cascade_inputs(self, recs: list[Recording]) -> tuple[CascadeInputs, list[tuple[int, int]], TransmissionInputs]:
         """The cascade's batch input, one padded row per trajectory, with the trajectories' bounds and inputs."""
         inp = self._inputs(recs, self.geometry_)
@@ -246,6 +265,7 @@ class PGCHTC(GuardedCascade):
 
     def _check(self, data) -> list[Recording]:
         recs = self._check_data(data)
+        check_tendon_count(recs, self.n_tendons_, self.name)
         for r in recs:
             r.check_history_window(self.history_frames)
         return recs
@@ -256,7 +276,7 @@ class PGCHTC(GuardedCascade):
         return int(self.cascade_.cfg.window)
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
-        """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``.
+        """Every ``T[k, j, i]`` [N], shape (T, N, N, n), NaN where ``k > j``.
 
         Batched over trajectories, time and sets.
         """
@@ -265,15 +285,15 @@ class PGCHTC(GuardedCascade):
         if prior is not None:
             return prior
         cin, bounds, inp = self.cascade_inputs(recs)
-        n = inp.n_modules
+        n, n_t = inp.n_modules, self.n_tendons_
         with torch.no_grad():
             _, log_ratio = self.cascade_(cin, torch.arange(n))
-        log_ratio = log_ratio.double().numpy()  # (B, L, N-1, N, 3)
-        chain = np.full((inp.n_frames, n, n, 3), np.nan)
+        log_ratio = log_ratio.double().numpy()  # (B, L, N-1, N, n)
+        chain = np.full((inp.n_frames, n, n, n_t), np.nan)
         for bi, (s, e) in enumerate(bounds):
             m = e - s
             cum = np.cumsum(log_ratio[bi, :m], axis=1)  # through guides 1..k
-            log_chain = np.concatenate([np.zeros((m, 1, n, 3)), cum], axis=1) + np.log(inp.actuator[s:e])[:, None]
+            log_chain = np.concatenate([np.zeros((m, 1, n, n_t)), cum], axis=1) + np.log(inp.actuator[s:e])[:, None]
             chain[s:e] = np.exp(log_chain)
         chain[:, 0] = inp.actuator
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
@@ -307,6 +327,8 @@ class PGCHTC(GuardedCascade):
             "prior_B": self.prior_B_.tolist(),
             "history": self.history_,
         }
+        if self.n_tendons_ != 3:  # left out for the paper's 3, so that such a model's files are as before the count
+            state["n_tendons"] = self.n_tendons_
         prior_state, prior_arrays = self._prior_state()
         return {**state, **prior_state}, {**weights_array(self.cascade_), **prior_arrays}
 
@@ -315,7 +337,9 @@ class PGCHTC(GuardedCascade):
         self.geometry_ = RobotGeometry.from_dict(state["geometry"])
         unit = dict(state["unit"])
         unit["hidden"] = tuple(unit["hidden"])
-        self.cascade_ = load_weights(Cascade(self.n_modules_ - 1, UnitConfig(**unit), tied=bool(state["tied"])), arrays)
+        n_t = int(state.get("n_tendons", 3))  # a model saved before the count: the paper's 3
+        cascade = Cascade(self.n_modules_ - 1, UnitConfig(**unit), tied=bool(state["tied"]), n_tendons=n_t)
+        self.cascade_ = load_weights(cascade, arrays)
         self.prior_A_, self.prior_B_ = np.asarray(state["prior_A"]), np.asarray(state["prior_B"])
         self.history_ = state.get("history", {})
         self._restore_prior(state, arrays)

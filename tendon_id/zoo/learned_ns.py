@@ -30,6 +30,7 @@ from tendon_id.data import Recording
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.geometry import RobotGeometry, sin_q
 from tendon_id.progress import epoch_progress
+from tendon_id.zoo.features import check_tendon_count
 from tendon_id.zoo.guard import GuardedCascade
 from tendon_id.zoo.inputs import TransmissionInputs, as_recordings
 from tendon_id.zoo.neural import load_weights, resolve_device, weights_array
@@ -52,17 +53,17 @@ def prior_terms(prior, inputs: TransmissionInputs, sets: np.ndarray) -> tuple[np
 
     Returns
     -------
-    log_ratio : ndarray, shape (T, K, S, 3)
-        ``ln r_prior`` [-], 0 where a set does not pass the guide.
-    state : ndarray of float32, shape (T, K, S, 3, 4)
+    log_ratio : ndarray, shape (T, K, S, n)
+        ``ln r_prior`` [-], 0 where a set does not pass the guide; ``n`` tendons per set.
+    state : ndarray of float32, shape (T, K, S, n, 4)
         :func:`friction_models.play_state.play_state` of each guide's play operator, 0 off the path.
     """
     values = prior.block_params_
-    chain = prior.propagate(inputs, prior.A_, prior.B_, values, sets=sets)  # (T, N, S, 3), NaN off the path
-    phi = prior.exponent(inputs, prior.A_, prior.B_, values)  # (T, K, N|1, 3)
-    t, n, s = chain.shape[0], chain.shape[1], len(sets)
-    log_ratio = np.zeros((t, n - 1, s, 3))
-    state = np.zeros((t, n - 1, s, 3, N_STATE), dtype=np.float32)
+    chain = prior.propagate(inputs, prior.A_, prior.B_, values, sets=sets)  # (T, N, S, n), NaN off the path
+    phi = prior.exponent(inputs, prior.A_, prior.B_, values)  # (T, K, N|1, n)
+    t, n, s, n_t = chain.shape[0], chain.shape[1], len(sets), chain.shape[-1]
+    log_ratio = np.zeros((t, n - 1, s, n_t))
+    state = np.zeros((t, n - 1, s, n_t, N_STATE), dtype=np.float32)
     for g in range(n - 1):
         active = sets > g
         if not active.any():
@@ -116,6 +117,8 @@ class PGCHTCNS(GuardedCascade):
     ----------
     cascade_ : learners.correction.CorrectedCascade or None
         None without correction.
+    n_tendons_ : int
+        Tendons per set ``n`` of the training data: the correction's widths follow it.
     prior_model_ : CapstanModel
         The calibrated nonsmooth capstan.
     alpha_0_ : float
@@ -202,6 +205,7 @@ class PGCHTCNS(GuardedCascade):
         self.dt_ = float(allrec.dt)
         prior = make(PRIOR, robot=self.geometry_, seed=self.seed, warmup_s=float(self.prior_warmup_s))
         self.history_, self.guard_ = {}, {}
+        self._n_tendons = allrec.n_tendons
         if not self.correction:  # the ablation: the calibrated physics on all the data
             self.prior_model_ = prior.fit(allrec)
             self.cascade_ = None
@@ -213,11 +217,11 @@ class PGCHTCNS(GuardedCascade):
         torch.manual_seed(self.seed)
         device = resolve_device(self.device, float64=True)
         self.prior_model_ = prior.fit(train)
-        n = allrec.n_modules
-        cascade = CorrectedCascade(n - 1, cfg, tied=bool(self.tied))
+        n, n_t = allrec.n_modules, self._n_tendons
+        cascade = CorrectedCascade(n - 1, cfg, tied=bool(self.tied), n_tendons=n_t)
         tr = TransmissionInputs.from_recordings([train], self.geometry_)
         wrap = tr.wrap_at(self.alpha_0_)
-        fit_feature_norm(cascade, sin_q(tr.angles), wrap, np.concatenate([tr.actuator.reshape(-1, 3), tr.terminal]))
+        fit_feature_norm(cascade, sin_q(tr.angles), wrap, np.concatenate([tr.actuator.reshape(-1, n_t), tr.terminal]))
         cascade.to(device)
         terminal = np.array([n - 1])
         label = lambda r: torch.as_tensor(np.log(r.terminal), dtype=torch.float32, device=device)  # noqa: E731
@@ -241,9 +245,16 @@ class PGCHTCNS(GuardedCascade):
         self._guard(val)
         return self
 
+    @property
+    def n_tendons_(self) -> int:
+        """Tendons per set the model was fitted on (3 for a model saved before the count was stored)."""
+        self.check_fitted()
+        return self._n_tendons
+
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
-        """Every ``T[k, j, i]`` [N], shape (T, N, N, 3), NaN where ``k > j``; batched over time and sets."""
+        """Every ``T[k, j, i]`` [N], shape (T, N, N, n), NaN where ``k > j``; batched over time and sets."""
         recs = self._check_data(data)
+        check_tendon_count(recs, self.n_tendons_, self.name)
         if self.cascade_ is None or self.uses_prior_:
             return self.prior_model_.predict_chain(recs)
         n = self.n_modules_
@@ -254,7 +265,7 @@ class PGCHTCNS(GuardedCascade):
             _, log_ratio = self.cascade_(inp, torch.as_tensor(sets))
         cum = np.cumsum(log_ratio.numpy(), axis=1)  # through guides 1..k
         act = inputs.actuator
-        chain = np.exp(np.concatenate([np.zeros((len(act), 1, n, 3)), cum], axis=1) + np.log(act)[:, None])
+        chain = np.exp(np.concatenate([np.zeros((len(act), 1, n, act.shape[-1])), cum], axis=1) + np.log(act)[:, None])
         chain[:, 0] = act
         chain[:, np.arange(n)[:, None] > np.arange(n)[None, :]] = np.nan
         return self._prior_where_worse(recs, chain)
@@ -276,6 +287,8 @@ class PGCHTCNS(GuardedCascade):
             "history": self.history_,
             "correction": None if self.cascade_ is None else {**asdict(self.cascade_.cfg), "tied": self.cascade_.tied},
         }
+        if self.n_tendons_ != 3:  # left out for the paper's 3, so that such a model's files are as before the count
+            state["n_tendons"] = self.n_tendons_
         prior_state, prior_arrays = self._prior_state()
         arrays = {} if self.cascade_ is None else weights_array(self.cascade_)
         return {**state, **prior_state}, {**arrays, **prior_arrays}
@@ -284,6 +297,7 @@ class PGCHTCNS(GuardedCascade):
         self.n_modules_ = int(state["n_modules"])
         self.geometry_ = RobotGeometry.from_dict(state["geometry"])
         self.dt_ = float(state["dt"])
+        self._n_tendons = int(state.get("n_tendons", 3))  # a model saved before the count: the paper's 3
         self.history_ = state.get("history", {})
         self._restore_prior(state, arrays)
         cfg = state.get("correction")
@@ -292,4 +306,5 @@ class PGCHTCNS(GuardedCascade):
             cfg = dict(cfg)
             tied = bool(cfg.pop("tied"))
             cfg["hidden"] = tuple(cfg["hidden"])
-            self.cascade_ = load_weights(CorrectedCascade(self.n_modules_ - 1, CorrectionConfig(**cfg), tied), arrays)
+            cascade = CorrectedCascade(self.n_modules_ - 1, CorrectionConfig(**cfg), tied, n_tendons=self._n_tendons)
+            self.cascade_ = load_weights(cascade, arrays)

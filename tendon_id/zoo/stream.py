@@ -22,7 +22,7 @@ STREAM_ENGINES = ("auto", "native", "torch")
 
 
 class PGCHTCStream:
-    """Streaming PG-CHTC: ``step(frame) -> (N, 3)`` joint-side estimates [N] (paper Algorithm 1).
+    """Streaming PG-CHTC: ``step(frame) -> (N, n)`` joint-side estimates [N] (paper Algorithm 1), ``n`` tendons per set.
 
     Parameters
     ----------
@@ -93,7 +93,7 @@ class PGCHTCStream:
             self.engine.close()
 
     def step(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
-        """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out."""
+        """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, n) [N] in; ``T_hat[j, j]`` (N, n) out."""
         frame = unit_inputs(angles, actuator, self.alpha0)
         out = self.engine.step(*frame) if self.engine_name == "native" else self._torch_step(*frame)
         est = np.exp(out)

@@ -15,6 +15,7 @@ from scipy.special import erf
 
 from friction_models.play_state import PlayStateStream
 from learners.cascade import LOG_RATIO_BOUND
+from learners.unit import N_GEOMETRY
 from tendon_id.zoo.features import unit_inputs
 from tendon_id.zoo.inputs import TransmissionInputs
 
@@ -25,7 +26,7 @@ def _gelu(x: np.ndarray) -> np.ndarray:
 
 
 class PGCHTCNSStream:
-    """``step(angles, actuator) -> (N, 3)`` joint-side estimates [N] of a fitted :class:`PGCHTCNS`.
+    """``step(angles, actuator) -> (N, n)`` joint-side estimates [N] of a fitted :class:`PGCHTCNS` (``n`` tendons).
 
     Parameters
     ----------
@@ -40,6 +41,7 @@ class PGCHTCNSStream:
         self.values = self.prior.block_params_
         self.geometry = model.geometry_
         self.n = model.n_modules_
+        self.n_tendons = model.n_tendons_
         self.dt = float(model.dt_)
         cascade = None if model.uses_prior_ else model.cascade_
         self.layers = []
@@ -69,11 +71,11 @@ class PGCHTCNSStream:
         return self.bound * np.tanh(h @ w + b)
 
     def _phi(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
-        """The prior's capstan exponent of one frame, shape (K, N|1, 3), through its own blocks."""
+        """The prior's capstan exponent of one frame, shape (K, N|1, n), through its own blocks."""
         one = TransmissionInputs(
             angles=angles[None],
             actuator=actuator[None],
-            terminal=np.ones((1, 3)),
+            terminal=np.ones((1, self.n_tendons)),
             reset=np.array([self.streams is None]),
             clock=np.zeros(1),
             dt=self.dt,
@@ -82,7 +84,7 @@ class PGCHTCNSStream:
         return self.prior.exponent(one, self.prior.A_, self.prior.B_, self.values)[0]
 
     def step(self, angles: np.ndarray, actuator: np.ndarray) -> np.ndarray:
-        """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, 3) [N] in; ``T_hat[j, j]`` (N, 3) out.
+        """One frame: joint angles (N, 2) [rad] and actuator-side tensions (N, n) [N] in; ``T_hat[j, j]`` (N, n) out.
 
         The prior's chain does not depend on the correction, so it runs first, guide by guide
         (one clamp each); the play operators' state is then updated for every guide at once,
@@ -90,13 +92,15 @@ class PGCHTCNSStream:
         """
         angles = np.asarray(angles, dtype=float)
         actuator = np.asarray(actuator, dtype=float)
-        n = self.n
+        n, n_t = self.n, self.n_tendons
+        if actuator.shape != (n, n_t):
+            raise ValueError(f"expected actuator-side tensions ({n}, {n_t}), got {actuator.shape}")
         start = self.streams is None
         if start:
-            self.streams = PlayStateStream((n - 1, n, 3), self.dt)  # guides x sets x tendons
+            self.streams = PlayStateStream((n - 1, n, n_t), self.dt)  # guides x sets x tendons
         sq, alpha, log_act = unit_inputs(angles, actuator, self.prior.alpha_0_)  # the prior's fitted routing wrap
-        phi = np.broadcast_to(self._phi(angles, actuator), (n - 1, n, 3))
-        x_in, lo, hi = (np.empty((n - 1, n, 3)) for _ in range(3))
+        phi = np.broadcast_to(self._phi(angles, actuator), (n - 1, n, n_t))
+        x_in, lo, hi = (np.empty((n - 1, n, n_t)) for _ in range(3))
         x = log_act  # the prior's own chain; sets that no longer pass a guide carry values nobody reads
         for g in range(n - 1):
             x_in[g], lo[g], hi[g] = x, x - phi[g], x + phi[g]
@@ -105,13 +109,15 @@ class PGCHTCNSStream:
         ratio = y - x_in  # ln r_prior per guide and set
         x_hat = log_act.copy()  # the corrected chain
         if self.layers:
-            geo = (np.concatenate([sq, np.cos(alpha)[:, None]], axis=1) - self.mean[:5]) / self.std[:5]
+            g5 = slice(0, N_GEOMETRY)
+            geo = (np.concatenate([sq, np.cos(alpha)[:, None]], axis=1) - self.mean[g5]) / self.std[g5]
         for g in range(n - 1):
             active = slice(g + 1, n)
             r = ratio[g, active]
             if self.layers:
                 t = x_hat[active]
-                parts = [np.broadcast_to(geo[g], (n - g - 1, 5)), (np.exp(t) - self.mean[5:]) / self.std[5:]]
+                tension = (np.exp(t) - self.mean[N_GEOMETRY:]) / self.std[N_GEOMETRY:]
+                parts = [np.broadcast_to(geo[g], (n - g - 1, N_GEOMETRY)), tension]
                 if self.state_inputs:
                     parts.append(state[g, active].reshape(n - g - 1, -1))
                 r = np.clip(r + self._delta(g, np.concatenate(parts, axis=1)), -LOG_RATIO_BOUND, LOG_RATIO_BOUND)

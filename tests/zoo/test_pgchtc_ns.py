@@ -74,7 +74,7 @@ def test_the_correction_is_bounded():
     unit = CorrectionUnit(CorrectionConfig(hidden=(16,), bound=0.3))
     torch.nn.init.normal_(unit.head.weight, std=50.0)
     with torch.no_grad():
-        biggest = float(unit(torch.randn(1000, unit.cfg.n_inputs) * 10).abs().max())
+        biggest = float(unit(torch.randn(1000, unit.n_inputs) * 10).abs().max())
     assert 0.29 < biggest <= 0.3 * (1 + 1e-6)  # saturated at the bound (float32), not silently zero
 
 

@@ -24,10 +24,10 @@ def test_kernel_erf_is_float32_accurate(kernel):
     assert np.max(np.abs(y - exact)) < 5e-7
 
 
-def _random_cascade(n, tied, residual, seed=0):
+def _random_cascade(n, tied, residual, seed=0, n_tendons=3):
     torch.manual_seed(seed)
     cfg = preset("tiny", temporal_residual=residual).unit
-    cascade = Cascade(n - 1, cfg, tied=tied).eval()
+    cascade = Cascade(n - 1, cfg, tied=tied, n_tendons=n_tendons).eval()
     with torch.no_grad():
         for u in cascade.units:
             u.backbone.head.weight.mul_(0.3)  # ratios near 1, so that the chain does not amplify rounding
@@ -41,23 +41,25 @@ def _random_cascade(n, tied, residual, seed=0):
                 torch.nn.init.normal_(u.residual.head.weight, std=0.3)  # a residual that matters
                 for layer in u.residual.layers:
                     torch.nn.init.normal_(layer.attn.lag_bias, std=1.0)  # lags distinguishable
-        cascade.feature_mean.copy_(torch.tensor([0, 0, 0, 0, 0.9, 150, 150, 150.0]))
-        cascade.feature_std.copy_(torch.tensor([0.2, 0.2, 0.2, 0.2, 0.05, 60, 60, 60.0]))
+        cascade.feature_mean.copy_(torch.tensor([0, 0, 0, 0, 0.9] + [150.0] * n_tendons))
+        cascade.feature_std.copy_(torch.tensor([0.2, 0.2, 0.2, 0.2, 0.05] + [60.0] * n_tendons))
     return cascade
 
 
 @pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("tied", [True, False])
 @pytest.mark.parametrize("residual", [True, False])
-def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, residual, threads):
-    """Against float64 batch inference of the same cascade, while the ring caches wrap four times."""
+@pytest.mark.parametrize("n_tendons", [3, 2, 4, 5])
+def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, residual, threads, n_tendons):
+    """Against float64 batch inference of the same cascade, while the ring caches wrap four times; for the
+    paper's three tendons a set and other counts (the kernel reads the count from its configuration)."""
     n, L = 5, 23  # tiny preset: window 5
-    cascade = _random_cascade(n, tied, residual)
+    cascade = _random_cascade(n, tied, residual, n_tendons=n_tendons)
     g = torch.Generator().manual_seed(1)
     sin_q = 0.2 * torch.randn(1, L, n - 1, 4, generator=g)
     alpha = 0.05 + 0.3 * torch.rand(1, L, n - 1, generator=g)
-    log_act = 5.0 + 0.3 * torch.randn(1, L, n, 3, generator=g)
-    c64 = Cascade(n - 1, cascade.cfg, tied=tied).double().eval()
+    log_act = 5.0 + 0.3 * torch.randn(1, L, n, n_tendons, generator=g)
+    c64 = Cascade(n - 1, cascade.cfg, tied=tied, n_tendons=n_tendons).double().eval()
     c64.load_state_dict(cascade.state_dict())
     with torch.no_grad():
         exact, _ = c64(
@@ -72,20 +74,13 @@ def test_native_frames_equal_exact_arithmetic_over_many_windows(kernel, tied, re
     np.testing.assert_array_equal(again, out[:7])
 
 
+@pytest.mark.parametrize("n_tendons", [3, 4])
 @pytest.mark.parametrize("tied", [True, False])
-def test_helper_thread_gives_the_same_bits(kernel, tied):
+def test_helper_thread_gives_the_same_bits(kernel, tied, n_tendons):
     """g_phi on a helper thread beside f_theta: the same arithmetic, so the same bits, frame after frame."""
     n, L = 6, 17
-    cascade = _random_cascade(n, tied, True, seed=4)
-    g = torch.Generator().manual_seed(2)
-    frames = [
-        (
-            0.2 * torch.randn(n - 1, 4, generator=g).numpy(),
-            (0.05 + 0.3 * torch.rand(n - 1, generator=g)).numpy(),
-            (5.0 + 0.3 * torch.randn(n, 3, generator=g)).numpy(),
-        )
-        for _ in range(L)
-    ]
+    cascade = _random_cascade(n, tied, True, seed=4, n_tendons=n_tendons)
+    frames = _frames(n, L, seed=2, n_tendons=n_tendons)
     one, two = sn.NativeStreamingCascade(cascade, n, threads=1), sn.NativeStreamingCascade(cascade, n, threads=2)
     auto = sn.NativeStreamingCascade(cascade, n, threads="auto")  # switches between the two: still the same bits
     for f in frames:
@@ -100,6 +95,9 @@ def test_native_step_rejects_wrong_shapes(kernel):
     engine = sn.NativeStreamingCascade(_random_cascade(4, True, True), 4)
     with pytest.raises(ValueError, match=r"sin_q \(3, 4\)"):
         engine.step(np.zeros((4, 4)), np.zeros(3), np.zeros((4, 3)))
+    four = sn.NativeStreamingCascade(_random_cascade(4, True, True, n_tendons=4), 4)
+    with pytest.raises(ValueError, match=r"log_actuator \(4, 4\)"):
+        four.step(np.zeros((3, 4)), np.zeros(3), np.zeros((4, 3)))
 
 
 def test_kernel_refuses_what_it_cannot_run(kernel):
@@ -181,28 +179,29 @@ def test_software_float16_conversion_is_exact(kernel, tmp_path):
     np.testing.assert_array_equal(y, bits.view(np.float16).astype(np.float32))
 
 
-def _frames(n, L, seed):
+def _frames(n, L, seed, n_tendons=3):
     g = torch.Generator().manual_seed(seed)
     return [
         (
             0.2 * torch.randn(n - 1, 4, generator=g).numpy(),
             (0.05 + 0.3 * torch.rand(n - 1, generator=g)).numpy(),
-            (5.0 + 0.3 * torch.randn(n, 3, generator=g)).numpy(),
+            (5.0 + 0.3 * torch.randn(n, n_tendons, generator=g)).numpy(),
         )
         for _ in range(L)
     ]
 
 
+@pytest.mark.parametrize("n_tendons", [3, 2])
 @pytest.mark.parametrize("tied", [True, False])
-def test_float16_weights_stay_close_to_float32(kernel, tied):
+def test_float16_weights_stay_close_to_float32(kernel, tied, n_tendons):
     """Half-precision weights: near the float32 reference, and still one result for one or two threads."""
     n = 6
-    cascade = _random_cascade(n, tied, True, seed=5)
+    cascade = _random_cascade(n, tied, True, seed=5, n_tendons=n_tendons)
     ref = sn.NativeStreamingCascade(cascade, n, threads=1)
     one = sn.NativeStreamingCascade(cascade, n, threads=1, weights="float16")
     two = sn.NativeStreamingCascade(cascade, n, threads=2, weights="float16")
     diffs = []
-    for f in _frames(n, 17, seed=3):
+    for f in _frames(n, 17, seed=3, n_tendons=n_tendons):
         r, h = ref.step(*f), one.step(*f)
         np.testing.assert_array_equal(two.step(*f), h)
         diffs.append(np.max(np.abs(h - r)))
