@@ -3,7 +3,7 @@
 Each bundled recipe is simulated, and the capstan family keeps the zoo's whole contract on it
 (:func:`tendon_id.zoo.testing.check_model`: shapes with the robot's tendon count, terminal labels
 only, save and load to the bit); calibration, its posterior, the identifiability study and the
-diagnosis run and give one answer per tendon.
+diagnosis run and give one answer per tendon. The cascades on these robots: tests/zoo/test_learned_tendons.py.
 """
 
 import numpy as np
@@ -96,3 +96,4 @@ def test_the_diagnosis_ranks_candidates(robot):
     assert sorted(cells.params) == sorted(
         [f"gain_{i}" for i in range(1, n + 1)] + [f"offset_{i}" for i in range(1, n + 1)]
     )
+

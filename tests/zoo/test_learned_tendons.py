@@ -24,7 +24,6 @@ ROBOTS = {
     4: ("snake6-quad", [0.3, 0.32, 0.28, 0.3], [0.09, 0.08, 0.1, 0.09]),
     2: ("planar6-pair", [0.3, 0.32], [0.09, 0.08]),
 }
-NEEDS_CAPSTAN = pytest.mark.xfail(reason="needs the capstan family's tendon count (lead, issue 41)", strict=False)
 
 
 def _recording(n_tendons: int, protocol: str, frames: int, seed: int):
@@ -137,7 +136,6 @@ def test_pgchtc_native_streaming_equals_batch(pgchtc, data, threads):
     stream.close()
 
 
-@NEEDS_CAPSTAN
 def test_pgchtc_saved_model_predicts_the_same(pgchtc, data, tmp_path):
     _, test = data
     back = zoo.load(pgchtc.save(tmp_path / "pg"))  # the prior model is saved inside it
@@ -145,7 +143,6 @@ def test_pgchtc_saved_model_predicts_the_same(pgchtc, data, tmp_path):
     np.testing.assert_array_equal(back.predict(test), pgchtc.predict(test))
 
 
-@NEEDS_CAPSTAN
 def test_pgchtc_with_its_calibrated_prior_and_guard(data):
     train, test = data
     with warnings.catch_warnings():
@@ -155,7 +152,6 @@ def test_pgchtc_with_its_calibrated_prior_and_guard(data):
     _check_predictions(model, test)
 
 
-@NEEDS_CAPSTAN
 def test_pgchtc_ns_fits_predicts_and_streams(data, tmp_path):
     train, test = data
     with warnings.catch_warnings():
