@@ -96,4 +96,3 @@ def test_the_diagnosis_ranks_candidates(robot):
     assert sorted(cells.params) == sorted(
         [f"gain_{i}" for i in range(1, n + 1)] + [f"offset_{i}" for i in range(1, n + 1)]
     )
-
