@@ -46,8 +46,14 @@ def _doubles(a, what: str) -> str:
 
 def _floats(a, what: str) -> str:
     a = _finite(np.asarray(a, dtype=np.float32).ravel(), what)
-    rows = [", ".join(f"{float(v):.9g}f" for v in a[i : i + 8]) for i in range(0, a.size, 8)]
+    rows = [", ".join(_float_literal(v) for v in a[i : i + 8]) for i in range(0, a.size, 8)]
     return ",\n    ".join(rows)
+
+
+def _float_literal(v) -> str:
+    """A float32 as a C literal the compiler reads back to the same bits: nine significant digits, ``f``."""
+    text = f"{float(v):.9g}"
+    return text + ("f" if "." in text or "e" in text else ".0f")  # "1f" is no C literal, "1.0f" is
 
 
 def _array(name: str, a, what: str) -> str:

@@ -13,7 +13,18 @@ from tendon_id import progress
 from tendon_id.cli import main
 from tendon_id.cli.app import bare_json
 
-COMMANDS = ["simulate", "info", "fit", "evaluate", "calibrate", "benchmark", "identifiability", "diagnose", "demo"]
+COMMANDS = [
+    "simulate",
+    "info",
+    "fit",
+    "evaluate",
+    "calibrate",
+    "export",
+    "benchmark",
+    "identifiability",
+    "diagnose",
+    "demo",
+]
 JSON_COMMANDS = COMMANDS  # every command takes --json PATH|-
 
 
@@ -132,6 +143,11 @@ CASES = {
         ["evaluate", "--model", "{model}", "--data", "{rec}"],
         lambda d: d["model"] == "capstan-simple" and set(d["terminal"]) >= {"rmse", "r2", "max_error"},
         "terminal joint",
+    ),
+    "export": (
+        ["export", "{model}", "--format", "c", "--out", "{tmp}/exported"],
+        lambda d: d["model"] == "capstan-simple" and d["files"] == ["export.json", "tendon_model.c", "tendon_model.h"],
+        "exported capstan-simple (c)",
     ),
     "benchmark": (
         ["benchmark", "table1"],
