@@ -80,13 +80,15 @@ def _capstan(spec: CapstanSpec) -> tuple[str, str, str]:
 #define HYSTERESIS {int(spec.hysteresis)}
 #define CONSTANT_MU {int(spec.mu_law == "constant")}
 static const double ALPHA_0 = {repr(spec.alpha_0)};
-static const double ALPHA_C = {repr(spec.alpha_c)};
 """
+    if spec.gate is not None:  # only what the step reads: an unused static const is a compiler warning
+        prelude += f"static const double ALPHA_C = {repr(spec.alpha_c)};\n"
     law = "".join(
         f"static const double LAW_{name}[{rows}][{m}] = {{"
         + ", ".join("{" + _doubles(row, f"law {name}") + "}" for row in arr)
         + "};\n"
         for name, arr in (("A", spec.A), ("B", spec.B))
+        if name == "B" or spec.mu_law != "constant"
     )
     kernel = (KERNELS / "capstan_kernel.c").read_text()
     return fields, prelude + law, kernel.replace("@WEIGHTS@", "")

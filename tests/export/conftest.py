@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tendon_id.datasets import load_recipe
-from tendon_id.export.run import find_compiler
+from tendon_id.export.run import CStep, find_compiler
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
 
@@ -27,6 +27,15 @@ def stream_recording(stepper, angles, actuator, reset) -> np.ndarray:
             stepper.reset()
         out.append(stepper.step(angles[t], actuator[t]))
     return np.stack(out)
+
+
+#: The C export compiles as pedantic C99 without a warning.
+STRICT = ("-O2", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror")
+
+
+def strict_c(folder) -> CStep:
+    """The exported C step of ``folder``, compiled with :data:`STRICT`."""
+    return CStep(folder, flags=STRICT)
 
 
 @pytest.fixture(scope="session")

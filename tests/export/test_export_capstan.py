@@ -4,11 +4,11 @@ import json
 
 import numpy as np
 import pytest
-from conftest import stream_recording
+from conftest import stream_recording, strict_c
 
 from tendon_id import zoo
 from tendon_id.export import export_files, export_model
-from tendon_id.export.run import CStep, OnnxStep
+from tendon_id.export.run import OnnxStep
 from tendon_id.export.spec import ExportError
 from tendon_id.geometry import RobotGeometry
 
@@ -69,7 +69,7 @@ def test_onnx_agrees_with_the_streamer(nonsmooth, variant, tmp_path, frames):
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_c_agrees_with_the_streamer(nonsmooth, variant, tmp_path, frames, compiler):
     """Measured: the same bits (libm's log, exp and cos against numpy's)."""
-    _check(family(nonsmooth)[variant], CStep, "c", tmp_path, frames)
+    _check(family(nonsmooth)[variant], strict_c, "c", tmp_path, frames)
 
 
 def test_the_exported_step_keeps_the_stick_state(nonsmooth, tmp_path, frames):
@@ -97,7 +97,7 @@ def test_any_module_and_tendon_count(fmt, tmp_path, request):
     folder = export_model(model, fmt, tmp_path / fmt)
     manifest = json.loads((folder / "export.json").read_text())
     assert (manifest["n_modules"], manifest["n_tendons"]) == (n, m)
-    runner = OnnxStep(folder) if fmt == "onnx" else CStep(folder)
+    runner = OnnxStep(folder) if fmt == "onnx" else strict_c(folder)
     out = stream_recording(runner, angles, actuator, reset)
     ref = stream_recording(model.streamer(), angles, actuator, reset)
     assert out.shape == (steps, n, m)

@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 import torch
-from conftest import stream_recording
+from conftest import stream_recording, strict_c
 
 from learners import Cascade, preset
 from tendon_id import zoo
@@ -83,7 +83,7 @@ def test_onnx_agrees_with_the_streamer(trained, frames, tmp_path, name):
 
 @pytest.mark.parametrize("name", VARIANTS)
 def test_c_agrees_with_the_streamer(trained, frames, tmp_path, name, compiler):
-    _agree(CStep, "c", name, trained, frames, tmp_path)
+    _agree(strict_c, "c", name, trained, frames, tmp_path)
 
 
 def test_the_c_source_stands_alone(trained, tmp_path, compiler):

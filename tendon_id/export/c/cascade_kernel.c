@@ -52,6 +52,7 @@ static void linear(const float *x, int M, linear_t L, float *y) {
     }
 }
 
+#if RESIDUAL
 static void layer_norm(const float *x, int M, int D, norm_t p, float *y) {
     for (int m = 0; m < M; m++) {
         const float *r = x + (size_t)m * D;
@@ -63,6 +64,8 @@ static void layer_norm(const float *x, int M, int D, norm_t p, float *y) {
         for (int i = 0; i < D; i++) y[(size_t)m * D + i] = (r[i] - mean) * inv * p.g[i] + p.b[i];
     }
 }
+
+#endif
 
 static void state_reset(state_t *s) {
     s->n_seen = 0;
@@ -133,7 +136,11 @@ static int check_frame(const double *angles, const double *actuator) {
 static int state_step(state_t *s, const double *angles, const double *actuator, double *tensions) {
     if (check_frame(angles, actuator)) return 1;
     float *x = s->scratch, *a = x + (size_t)NG * NF, *b = a + (size_t)NG * WIDEST;
-    float *ratio = b + (size_t)NG * WIDEST + (size_t)NG * DM, *tr = ratio + (size_t)NG * NT;
+    float *ratio = b + (size_t)NG * WIDEST + (size_t)NG * DM;
+#if RESIDUAL
+    float *tr = ratio + (size_t)NG * NT;
+    int first_stream = 0; /* guide g's caches start at stream sum_{h < g} (NG - h) */
+#endif
     double mag[NM], geo[NG][5], log_t[NM][NT];
     for (int k = 0; k < NM; k++) mag[k] = sqrt(angles[2 * k] * angles[2 * k] + angles[2 * k + 1] * angles[2 * k + 1]);
     for (int g = 0; g < NG; g++) { /* paper Eqs. (2), (3): sin q_k and the backbone wrap */
@@ -146,7 +153,6 @@ static int state_step(state_t *s, const double *angles, const double *actuator, 
     for (int j = 0; j < NM; j++)
         for (int i = 0; i < NT; i++) log_t[j][i] = log(actuator[j * NT + i]);
     for (int i = 0; i < NT; i++) tensions[i] = actuator[i]; /* set 1 passes no guide: its reading, exactly */
-    int first_stream = 0;
     for (int g = 0; g < NG; g++) {
         int M = NG - g; /* sets g + 2 .. NM pass guide g + 1 */
         const unit_t *u = &UNITS[N_UNITS == 1 ? 0 : g];
@@ -177,7 +183,9 @@ static int state_step(state_t *s, const double *angles, const double *actuator, 
                 log_t[g + 1 + r][i] += (double)v;
             }
         for (int i = 0; i < NT; i++) tensions[(g + 1) * NT + i] = exp(log_t[g + 1][i]); /* set g + 2 is final */
+#if RESIDUAL
         first_stream += M;
+#endif
     }
     s->slot = s->slot + 1 < WIN ? s->slot + 1 : 0;
     s->n_seen = s->n_seen < WIN ? s->n_seen + 1 : WIN;
