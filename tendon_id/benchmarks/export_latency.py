@@ -2,11 +2,13 @@
 
 For each model, the same frames are stepped by ``streamer()`` (for pg-chtc its default engine,
 the project's C kernel where it builds), by the exported C step and by the exported ONNX graph
-in onnxruntime (one thread).  The C step is timed twice: inside C, by a small driver that
-reads the frames from a file and times each step with ``clock_gettime`` (what a controller
-written in C pays), and through ctypes from Python (what :class:`~tendon_id.export.run.CStep`
-pays, a few microseconds more).  Each figure is the median over the frames after the first 10;
-the agreement of each export with the streamer over the same frames is reported beside it.
+in onnxruntime (one thread).  The C step is timed inside C, by a small driver that reads the
+frames from a file and times each step with ``clock_gettime`` (what a controller written in C
+pays), built as the export says (``-O2``) and for this CPU (``-O3 -march=native``, where the
+compiler vectorises the loops), and through ctypes from Python (what
+:class:`~tendon_id.export.run.CStep` pays, a few microseconds more).  Each figure is the median
+over the frames after the first 10; the agreement of each export with the streamer over the
+same frames is reported beside it.
 """
 
 from __future__ import annotations
@@ -65,8 +67,13 @@ def _timed(stepper, angles, actuator, reset) -> tuple[np.ndarray, float]:
     return np.stack(outs), float(np.median(times[10:]) * 1e3)
 
 
-def _in_c(cc: str, folder: Path, angles, actuator, reset) -> tuple[np.ndarray, float]:
-    """The exported C step timed inside C: the last set's last tension of every frame, and the median [ms]."""
+#: The build line of the export (``-O2``), and one for a known CPU, where the compiler vectorises the loops.
+BUILDS = {"c_ms": ("-O2",), "c_native_ms": ("-O3", "-march=native")}
+
+
+def _in_c(cc: str, folder: Path, angles, actuator, reset, flags: tuple[str, ...]) -> tuple[np.ndarray, float]:
+    """The exported C step built with ``flags`` and timed inside C: the last set's last tension of every frame,
+    and the median [ms]."""
     prefix = "tendon_model"
     driver = DRIVER.replace("PREFIX_UPPER", prefix.upper()).replace("PREFIX", prefix)
     (folder / "driver.c").write_text(driver)
@@ -75,7 +82,7 @@ def _in_c(cc: str, folder: Path, angles, actuator, reset) -> tuple[np.ndarray, f
     )
     (folder / "frames.bin").write_bytes(np.ascontiguousarray(frames, dtype=np.float64).tobytes())
     exe = folder / "driver"
-    cmd = [cc, "-O2", "-o", str(exe), str(folder / "driver.c"), str(folder / f"{prefix}.c"), "-lm"]
+    cmd = [cc, *flags, "-o", str(exe), str(folder / "driver.c"), str(folder / f"{prefix}.c"), "-lm"]
     subprocess.run(cmd, check=True, capture_output=True, text=True)
     lines = subprocess.run([str(exe), str(folder / "frames.bin")], check=True, capture_output=True, text=True)
     ns, last = np.loadtxt(lines.stdout.splitlines(), ndmin=2).T
@@ -99,7 +106,8 @@ def exported_latency(models: dict, angles: np.ndarray, actuator: np.ndarray, res
     Returns
     -------
     list of dict
-        Per model: ``streamer_ms``, ``c_ms`` (timed in C), ``c_ctypes_ms``, ``onnx_ms`` [ms per frame],
+        Per model: ``streamer_ms``, ``c_ms`` (timed in C, ``-O2``), ``c_native_ms`` (``-O3 -march=native``),
+        ``c_ctypes_ms``, ``onnx_ms`` [ms per frame],
         ``c_speedup`` and ``onnx_speedup`` (the streamer's time over the export's), and the exports'
         ``*_max_abs_N`` [N] and ``*_max_rel`` deviation from the streamer; None where no compiler or no
         onnxruntime is found (``why`` says which).
@@ -127,8 +135,12 @@ def exported_latency(models: dict, angles: np.ndarray, actuator: np.ndarray, res
                     continue
                 out, ms = _timed(runner, angles, actuator, reset)
                 if fmt == "c":
-                    last, ms_c = _in_c(cc, folder, angles, actuator, reset)
+                    last, ms_c = _in_c(cc, folder, angles, actuator, reset, BUILDS["c_ms"])
                     row.update(c_ctypes_ms=ms, c_same_in_c=bool(np.array_equal(last, out[:, -1, -1])))
+                    try:  # a compiler without -march=native (or another CPU family's flags): not measured
+                        row["c_native_ms"] = _in_c(cc, folder, angles, actuator, reset, BUILDS["c_native_ms"])[1]
+                    except subprocess.CalledProcessError:
+                        row["c_native_ms"] = None
                     ms = ms_c
                 row[f"{fmt}_ms"], row[f"{fmt}_speedup"] = ms, stream_ms / ms
                 row[f"{fmt}_max_abs_N"] = float(np.max(np.abs(out - ref)))
@@ -147,6 +159,11 @@ def format_exported(rows: list[dict]) -> list[str]:
                 f"      C (timed in C) {r['c_ms']:.4f} ms, streamer/C {r['c_speedup']:.1f}; through ctypes "
                 f"{r['c_ctypes_ms']:.4f} ms; {r['c_max_abs_N']:.1e} N ({r['c_max_rel']:.1e} relative)"
             )
+            if r.get("c_native_ms") is not None:
+                lines.append(
+                    f"      C built with -O3 -march=native (timed in C) {r['c_native_ms']:.4f} ms, "
+                    f"streamer/C {r['streamer_ms'] / r['c_native_ms']:.1f}"
+                )
         if r.get("onnx_ms") is not None:
             lines.append(
                 f"      ONNX (onnxruntime, 1 thread) {r['onnx_ms']:.4f} ms, streamer/ONNX {r['onnx_speedup']:.2f}; "

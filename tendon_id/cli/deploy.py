@@ -14,9 +14,9 @@ from tendon_id.cli.common import JsonOutput, json_option
 from tendon_id.extras import require_extra
 from tendon_id.progress import stage
 
-#: Kept here as well as in tendon_id.export, so that --help answers without importing the exporters.
+#: As tendon_id.export has them (a test checks it), so that --help answers without importing the exporters.
 FORMATS = ("onnx", "c")
-EXPORTED = "pg-chtc, capstan-nonsmooth, capstan-simple, capstan-contact, capstan-const-mu, capstan"
+EXPORTED = "pg-chtc, capstan-simple, capstan-contact, capstan-nonsmooth, capstan-const-mu, capstan"
 
 
 @app.command(

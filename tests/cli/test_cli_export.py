@@ -75,3 +75,10 @@ def test_a_model_that_cannot_be_exported_exits_2_naming_what_can(recording, tmp_
 def test_a_folder_without_a_model_exits_2(tmp_path, capsys):
     code, _, err = run(capsys, "export", tmp_path, "--format", "c", "--out", tmp_path / "out")
     assert code == 2 and "no model.json" in err
+
+
+def test_the_help_lists_what_the_exporter_takes():
+    from tendon_id.cli import deploy
+    from tendon_id.export import EXPORTED_MODELS, FORMATS
+
+    assert deploy.EXPORTED == ", ".join(EXPORTED_MODELS) and deploy.FORMATS == FORMATS

@@ -1,10 +1,9 @@
-"""What the export tests share: a small simulated recording, and stepping a recording through any streamer."""
+"""What the export tests share: a small simulated recording, its frames, and a C compiler (or a skip)."""
 
-import numpy as np
 import pytest
 
 from tendon_id.datasets import load_recipe
-from tendon_id.export.run import CStep, find_compiler
+from tendon_id.export.run import find_compiler
 from tendon_id.sim import simulate
 from tendon_id.zoo.inputs import TransmissionInputs
 
@@ -17,25 +16,6 @@ def recordings():
     test = simulate(r, "posterior-3", frames=300, seed=1).recording
     assert len(test.trajectories) >= 2
     return train, test
-
-
-def stream_recording(stepper, angles, actuator, reset) -> np.ndarray:
-    """Every frame through ``stepper`` (``step(angles, actuator)``, ``reset()``), reset where ``reset`` is True."""
-    out = []
-    for t in range(len(angles)):
-        if reset[t]:
-            stepper.reset()
-        out.append(stepper.step(angles[t], actuator[t]))
-    return np.stack(out)
-
-
-#: The C export compiles as pedantic C99 without a warning.
-STRICT = ("-O2", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror")
-
-
-def strict_c(folder) -> CStep:
-    """The exported C step of ``folder``, compiled with :data:`STRICT`."""
-    return CStep(folder, flags=STRICT)
 
 
 @pytest.fixture(scope="session")

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import stream_recording
+from export_helpers import stream_recording
 
 from tendon_id import zoo
 from tendon_id.benchmarks.latency import untrained_model

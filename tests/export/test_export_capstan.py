@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import stream_recording, strict_c
+from export_helpers import stream_recording, strict_c
 
 from tendon_id import zoo
 from tendon_id.export import export_files, export_model

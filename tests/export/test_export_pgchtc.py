@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 import torch
-from conftest import stream_recording, strict_c
+from export_helpers import stream_recording, strict_c
 
 from learners import Cascade, preset
 from tendon_id import zoo
