@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import signal
 import tempfile
 import threading
@@ -48,6 +49,41 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], None]) -> Path:
         raise
     if _journal is not None:
         _journal.append(path)
+    return path
+
+
+def write_folder_atomic(path: str | os.PathLike, files: dict[str, bytes]) -> Path:
+    """Write ``files`` (name -> content) as the folder ``path``: into a temporary folder beside it, renamed into place.
+
+    Readers see the old folder or the whole new one, never a mix.  An existing ``path`` is
+    replaced (renamed aside, then removed): the caller checks first that it may be.  Names are
+    plain file names; the files get the ordinary permissions, as :func:`atomic_write` gives.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    old = None
+    try:
+        for name, content in files.items():
+            if Path(name).name != name:
+                raise ValueError(f"{name!r} is not a plain file name")
+            (tmp / name).write_bytes(content)
+            os.chmod(tmp / name, 0o666 & ~_umask())
+        os.chmod(tmp, 0o777 & ~_umask())
+        if path.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".old", dir=path.parent))
+            os.replace(path, old / path.name)
+        os.replace(tmp, path)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if old is not None and (old / path.name).exists() and not path.exists():
+            os.replace(old / path.name, path)  # put the old folder back
+        raise
+    finally:
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    if _journal is not None:
+        _journal.extend(path / name for name in files)
     return path
 
 

@@ -18,3 +18,16 @@ def test_latency_benchmark_reports_the_design_shape_and_streaming_equals_batch()
     assert r["streaming_ms_median"] > 0 and r["speedup"] == r["naive_ms_median"] / r["streaming_ms_median"]
     if r["native_threads"] == 2:  # the one-thread run of the same engine, in the same benchmark
         assert r["native_threads_same_bits"] is True and r["native_one_thread_ms_median"] > 0
+    # The exported steps, timed in the same run beside their streamers, agree with them (tests/export say how closely).
+    exported = {row["model"]: row for row in r["exported"]}
+    assert set(exported) == {"pg-chtc", "capstan-nonsmooth"}
+    for name, row in exported.items():
+        assert row["streamer_ms"] > 0
+        for fmt in ("c", "onnx"):
+            if row[f"{fmt}_ms"] is None:  # no compiler, or no onnxruntime: said why
+                assert row["why"]
+                continue
+            assert row[f"{fmt}_speedup"] == row["streamer_ms"] / row[f"{fmt}_ms"]
+            assert row[f"{fmt}_max_rel"] <= (1e-5 if name == "pg-chtc" else 1e-12)
+        if row["c_ms"] is not None:
+            assert row["c_same_in_c"] and row["c_ctypes_ms"] > 0  # the C driver computed what ctypes did

@@ -5,7 +5,9 @@ Times ``tendon_id.zoo.stream.PGCHTCStream.step`` frame by frame for an N-module 
 implementation: every unit called separately for every set, its causal Transformer
 recomputed over the whole window of past unit inputs each time.  The naive step is timed
 once its window is full (after ``L (h - 1) + 1`` frames), where it does the work it is
-defined by; streaming is timed over the whole trajectory after 10 frames.
+defined by; streaming is timed over the whole trajectory after 10 frames.  In the same run, the
+exported steps of pg-chtc and of capstan-nonsmooth (``tendon-id export``, C and ONNX) are timed
+beside their streamers (:mod:`tendon_id.benchmarks.export_latency`).
 
 Latency does not depend on the weights' values, so the timed model is built untrained:
 random weights, the input normalisation fitted on data, and a non-zero temporal head so
@@ -33,6 +35,7 @@ from learners.presets import preset as get_preset
 from learners.streaming_native import kernel_status
 from learners.streaming_pack import WEIGHT_FORMATS
 from learners.training import fit_feature_norm
+from tendon_id.benchmarks.export_latency import exported_latency, format_exported
 from tendon_id.datasets import load_recipe
 from tendon_id.geometry import sin_q
 from tendon_id.sim import simulate
@@ -226,6 +229,9 @@ def latency(
     load_rows = thread_load_table(model, angles, act, native_threads) if default.engine_name == "native" else []
     ns = untrained_ns_model(rec, preset, seed)
     ns_streamed, ns_ms = _stream(ns.streamer(), angles, act)
+    # The exported steps (C, ONNX) of pg-chtc and of the calibrated capstan-nonsmooth, beside their streamers.
+    starts = np.arange(first.n_frames) == 0
+    exported = exported_latency({"pg-chtc": model, "capstan-nonsmooth": ns.prior_model_}, angles, act, starts)
 
     n = model.n_modules_
     history = [[[] for _ in range(n)] for _ in range(n - 1)]
@@ -271,6 +277,7 @@ def latency(
         "float16_ms_median": f16_ms,
         "float16_max_rel_diff_vs_batch": f16_rel,
         "thread_load": load_rows,
+        "exported": exported,
         "frames": first.n_frames,
         "naive_frames": len(naive_times),
         "threads": torch.get_num_threads(),
@@ -328,6 +335,8 @@ def format_latency(r: dict) -> str:
             f"{r['ns_vs_pgchtc']:.2f}x pg-chtc's; max relative difference from batch "
             f"{r['ns_max_rel_diff_vs_batch']:.2e}"
         )
+    if r.get("exported"):
+        lines += format_exported(r["exported"])
     a = r.get("trained_fast")
     if a:
         lines.append(

@@ -16,13 +16,14 @@ The lists in the help texts (models, benchmarks, protocols, effects) come from t
 registries. Each command imports what it runs inside its body, so that ``--help`` and a
 mistyped option answer at once instead of after loading torch. The commands live by job:
 :mod:`~tendon_id.cli.data` (simulate, info), :mod:`~tendon_id.cli.models` (fit, evaluate,
-calibrate), :mod:`~tendon_id.cli.bench` (benchmark), :mod:`~tendon_id.cli.analyses`
-(identifiability, diagnose) and :mod:`~tendon_id.cli.demo`; :mod:`~tendon_id.cli.app` runs them.
+calibrate), :mod:`~tendon_id.cli.deploy` (export), :mod:`~tendon_id.cli.bench` (benchmark),
+:mod:`~tendon_id.cli.analyses` (identifiability, diagnose) and :mod:`~tendon_id.cli.demo`;
+:mod:`~tendon_id.cli.app` runs them.
 """
 
 # isort: off
 # Each module registers its commands, in the order --help lists them.
-from tendon_id.cli import data, models, bench, analyses, demo  # noqa: F401
+from tendon_id.cli import data, models, deploy, bench, analyses, demo  # noqa: F401
 from tendon_id.cli.app import app, main
 
 # isort: on

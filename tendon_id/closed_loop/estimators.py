@@ -9,7 +9,7 @@ affords.  A model with a history window (``history_frames``, 20 for the cascades
 first frame repeated before it: the plant starts at rest, at its pretension.  Where the plant
 drives each joint by its own set only (``JointDynamics(statics="own_set")``) the controller
 reads the chain's diagonal alone, and a model with a streaming engine (``pg-chtc``,
-``pg-chtc-ns``) runs through it, which gives each set's own joint only.
+``pg-chtc-ns``, the capstan models whose blocks stream) runs through it, which gives each set's own joint only.
 """
 
 from __future__ import annotations
@@ -76,11 +76,14 @@ class ModelInLoop(InLoopEstimator):
 
     def reset(self, needs_chain: bool = True) -> None:
         self.stream = None
-        if not needs_chain and self.streamer is not None:
-            if self._engine is None:
+        if not needs_chain and self.streamer is not None and self._engine is None:
+            try:
                 self._engine = self.streamer()
-            else:
-                self._engine.reset()
+            except ConfigError:  # a capstan model with a block that does not stream: the history route
+                self.streamer = None
+        elif not needs_chain and self._engine is not None:
+            self._engine.reset()
+        if not needs_chain and self._engine is not None:
             self.stream = self._engine
         self.angles: list[NDArray] = []
         self.actuator: list[NDArray] = []

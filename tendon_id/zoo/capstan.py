@@ -209,6 +209,17 @@ class CapstanModel(CapstanStructure, TransmissionModel):
     def predict_terminal(self, data: Recording | Sequence[Recording]) -> NDArray[np.float64]:
         return self.terminal_reading(self.inputs(data), self.A_, self.B_, self.block_params_)
 
+    def streamer(self):
+        """A frame-by-frame estimator, O(1) per frame (:class:`~tendon_id.zoo.capstan_stream.CapstanStream`).
+
+        Raises ``ConfigError`` for a model with a block the frame-by-frame law does not cover
+        (:data:`~tendon_id.zoo.capstan_stream.STREAMED_BLOCKS` lists those it does).
+        """
+        from tendon_id.zoo.capstan_stream import CapstanStream
+
+        self.check_fitted()
+        return CapstanStream(self)
+
     @property
     def mu0_(self) -> NDArray[np.float64]:
         """``mu_i(0) = A_i + B_i``, shape (G, n): what terminal data pins down best."""

@@ -20,6 +20,7 @@ COMMANDS = [
     "fit",
     "evaluate",
     "calibrate",
+    "export",
     "benchmark",
     "identifiability",
     "diagnose",
@@ -156,6 +157,11 @@ CASES = {
         ["evaluate", "--model", "{model}", "--data", "{rec}"],
         lambda d: d["model"] == "capstan-simple" and set(d["terminal"]) >= {"rmse", "r2", "max_error"},
         "terminal joint",
+    ),
+    "export": (
+        ["export", "{model}", "--format", "c", "--out", "{tmp}/exported"],
+        lambda d: d["model"] == "capstan-simple" and d["files"] == ["export.json", "tendon_model.c", "tendon_model.h"],
+        "exported capstan-simple (c)",
     ),
     "benchmark": (
         ["benchmark", "table1"],
