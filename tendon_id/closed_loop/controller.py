@@ -15,13 +15,15 @@ Two loops per joint ``k``, run once per controller period ``T_c``:
   (:class:`HybridGains`' ``chain_smoothing``: the feedforward sums many noisy cells).  This is why the
   intermediate estimates matter: a set's tendons load every joint on their way to their own,
   and the controller can only cancel that load as well as it knows their tensions there.
-  The desired joint torque becomes desired joint-side tensions by the minimum-tension
-  distribution of a three-tendon joint (tendons 120 deg apart, ``sum_i u_i = 0``)::
+  The desired joint torque becomes desired joint-side tensions of the set's ``n`` tendons by the
+  minimum-norm tension above the pretension ``P`` (:mod:`~tendon_id.closed_loop.distribution`)::
 
-      T_d,i = P + d_i - min_l d_l,        d_i = 2 / (3 r) tau_d . u_i,   u_i = (cos psi_i, sin psi_i)
+      T_d = P + t,   t = argmin |t|^2  s.t.  r sum_i T_d,i u_i = tau_d,  t >= 0,   u_i = (cos psi_i, sin psi_i)
 
-  which gives ``r sum_i T_d,i u_i = tau_d`` with the slackest tendon at the pretension ``P``
-  (the puller-follower scheme of [3]: the follower keeps the tendon taut).
+  (the puller-follower scheme of [3]: the follower keeps the tendon taut).  For three tendons
+  120 deg apart it is ``T_d,i = P + d_i - min_l d_l`` with ``d_i = 2 / (3 r) tau_d . u_i``.  On a
+  planar robot (``bending_axes`` 1) the controller ignores ``theta_y``: its error is zero, and only
+  ``tau_d``'s x part, the moment about the hinge, is distributed.
 * **Tension (inner).** The estimator maps the actuator-side measurement ``a`` to an estimate
   ``T_hat`` of the joint side, and so gives the transmission's current ratio
   ``r_hat = T_hat / a``.  The command is incremental: the change of the desired joint side is
@@ -45,10 +47,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.closed_loop.distribution import TensionDistribution
 from tendon_id.closed_loop.statics import on_path
 from tendon_id.errors import ConfigError
 
-__all__ = ["HybridController", "HybridGains", "tension_distribution"]
+__all__ = ["HybridController", "HybridGains"]
 
 
 @dataclass(frozen=True)
@@ -105,35 +108,19 @@ class HybridGains:
             raise ConfigError("the controller needs pretension_n > 0 N and integral_limit > 0 N m")
 
 
-def tension_distribution(torque: NDArray, psi: NDArray, hole_radius: float, pretension: float) -> NDArray:
-    """Joint-side tensions [N] that exert ``torque`` [N m] with the slackest tendon at ``pretension``.
-
-    Parameters
-    ----------
-    torque : ndarray, shape (..., N, 2)
-    psi : ndarray, shape (N, 3)
-        Tendon azimuths [rad], three per set at 120 deg.
-
-    Returns
-    -------
-    ndarray, shape (..., N, 3)
-    """
-    d = (2.0 / (3.0 * hole_radius)) * (torque[..., :1] * np.cos(psi) + torque[..., 1:] * np.sin(psi))
-    return pretension + d - d.min(axis=-1, keepdims=True)
-
-
 class HybridController:
     """One robot's controller; :meth:`command` runs once per period.
 
     Parameters
     ----------
     gains : HybridGains
-    psi : ndarray, shape (N, 3)
-        Tendon azimuths [rad].
+    psi : ndarray, shape (N, n)
+        Tendon azimuths [rad], ``n`` tendons per set.
     hole_radius : float
         Moment arm ``r`` [m].
     robot : Plant
-        The robot's statics the controller knows: its geometry, masses and elastic return
+        The robot's statics the controller knows: its geometry (``bending_axes`` 1: a planar robot,
+        whose ``theta_y`` the controller ignores), masses and elastic return
         (:meth:`~tendon_id.closed_loop.plant.Plant.elastic_moments`,
         :meth:`~tendon_id.closed_loop.plant.Plant.gravity_moments`,
         :meth:`~tendon_id.closed_loop.plant.Plant.crossing_jacobian`), never its state or friction.
@@ -156,6 +143,8 @@ class HybridController:
         self.robot, self.period, self.max_tension_n = robot, float(period), float(max_tension_n)
         n = self.psi.shape[0]
         self._passing = (on_path(n) & ~np.eye(n, dtype=bool))[:, :, None]  # sets j > k at joint k
+        self.planar = robot.geometry.bending_axes == 1
+        self.distribution = TensionDistribution(self.psi, self.hole_radius, gains.pretension_n, 1 if self.planar else 2)
         self.integral = np.zeros((self.psi.shape[0], 2))
         self.last_error: NDArray | None = None  # e(t-1) [rad]
         self.chain: NDArray | None = None  # the low-passed chain estimate [N]
@@ -163,19 +152,21 @@ class HybridController:
         self.last_desired: NDArray | None = None  # T_d(t-1) [N]
 
     def command(self, ref: NDArray, angles: NDArray, actuator: NDArray, estimate: NDArray) -> NDArray:
-        """Actuator-side tension command [N], shape (N, 3), for the next period.
+        """Actuator-side tension command [N], shape (N, n), for the next period.
 
         Parameters
         ----------
         ref, angles : ndarray, shape (N, 2)
             Reference and measured joint angles [rad].
-        actuator : ndarray, shape (N, 3)
+        actuator : ndarray, shape (N, n)
             Measured actuator-side tensions [N].
-        estimate : ndarray, shape (N, N, 3)
+        estimate : ndarray, shape (N, N, n)
             The estimator's chain ``T_hat[k, j, i]`` [N]; its diagonal is each set's joint side.
         """
         g = self.gains
         err = ref - angles
+        if self.planar:  # a hinge has no theta_y to control
+            err[:, 1] = 0.0
         self.integral = np.clip(self.integral + g.ki * err * self.period, -g.integral_limit, g.integral_limit)
         rate = np.zeros_like(err) if self.last_error is None else (err - self.last_error) / self.period
         self.last_error = err
@@ -198,7 +189,7 @@ class HybridController:
         return u
 
     def distribute(self, hold: NDArray, angles: NDArray, estimate: NDArray) -> NDArray:
-        """Desired joint-side tensions [N], shape (N, 3): each joint's own set exerts ``hold`` less its load.
+        """Desired joint-side tensions [N], shape (N, n): each joint's own set exerts ``hold`` less its load.
 
         The load on joint ``k`` is gravity's and that of every distal set's tendons passing through
         it, at the tension each will have there once it holds its own desired joint side: the
@@ -216,11 +207,8 @@ class HybridController:
         shape = np.where(self._passing, np.nan_to_num(estimate) / own[None], 0.0)  # T_hat[k, j] / T_hat[j, j]
         jac = self.robot.crossing_jacobian(angles[None])[0]  # (N, N, 3, 2)
         load = self.robot.gravity_moments(angles[None])[0]
-        desired = np.empty((n, 3))
-        g = self.gains
+        desired = np.empty(estimate.shape[1:])
         for k in range(n - 1, -1, -1):
             passing = -np.einsum("ji,jia->a", shape[k, k + 1 :] * desired[k + 1 :], jac[k, k + 1 :])
-            desired[k] = tension_distribution(
-                (hold[k] - load[k] - passing)[None], self.psi[k : k + 1], self.hole_radius, g.pretension_n
-            )[0]
+            desired[k] = self.distribution((hold[k] - load[k] - passing)[None], slice(k, k + 1))[0]
         return desired

@@ -35,10 +35,10 @@ class InLoopEstimator:
         """Forget the last run; ``needs_chain`` False: only the chain's diagonal will be read."""
 
     def step(self, angles: NDArray, actuator: NDArray, truth: NDArray) -> NDArray:
-        """Chain estimate ``T_hat[k, j, i]`` (N, N, 3) [N] from angles (N, 2) [rad] and actuator side (N, 3) [N].
+        """Chain estimate ``T_hat[k, j, i]`` (N, N, n) [N] from angles (N, 2) [rad] and actuator side (N, n) [N].
 
-        ``truth`` is the measured true chain (N, N, 3); only the oracle reads it.  Entries off the
-        path (``k > j``) are not read.
+        ``n`` is the robot's tendons per set.  ``truth`` is the measured true chain (N, N, n); only the
+        oracle reads it.  Entries off the path (``k > j``) are not read.
         """
         raise NotImplementedError
 
@@ -92,7 +92,7 @@ class ModelInLoop(InLoopEstimator):
         if self.stream is not None:  # each set's own joint only: the rest of the chain is unknown (NaN)
             own = self.stream.step(angles, actuator)
             n = own.shape[0]
-            chain = np.full((n, n, 3), np.nan)
+            chain = np.full((n, n, own.shape[1]), np.nan)
             chain[np.arange(n), np.arange(n)] = own
             return chain
         if not self.angles:

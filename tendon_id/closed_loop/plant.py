@@ -1,7 +1,8 @@
 """The simulated robot of the closed loop: joint dynamics driven through the truth transmission.
 
 With ``JointDynamics(statics="full")``, the default, per joint ``k`` (two bending axes), a second-order joint
-(:doc:`/guide/closed_loop`)::
+(:doc:`/guide/closed_loop`), driven by the ``n`` tendons of every set that crosses it (``n`` the robot's
+``n_tendons``)::
 
     I_k theta_k'' + c_k theta_k' = tau_k
     tau_k = - sum_{j >= k} sum_i T[k, j, i] dl_kji/dtheta_k  + tau_g,k + tau_e,k
@@ -19,6 +20,10 @@ With ``JointDynamics(statics="full")``, the default, per joint ``k`` (two bendin
   tendon, where one tendon alone pulls (why that is not the default: :doc:`/guide/closed_loop`);
 * ``I_k`` the composite inertia of the chain distal to the joint
   (:func:`~tendon_id.closed_loop.statics.composite_inertia`) and ``c_k = 2 zeta sqrt(g r I_k)``.
+
+A planar robot (``bending_axes`` 1) has hinges: each joint turns about its y axis alone, so
+``theta_y`` and its rate are held at zero and the hinge's bearing reacts every moment about the
+joint's other axis (the tendons', gravity's); the x axis moves as above.
 
 The low-level puller-follower controller realises a commanded actuator tension with a first
 order lag ``tau_a`` (the paper gives no figure; 50 ms is a typical tension loop).  Between
@@ -177,12 +182,13 @@ class Plant:
     Attributes
     ----------
     theta, omega : ndarray, shape (B, N, 2)
-        Joint angles [rad] and rates [rad/s].
-    actuator : ndarray, shape (B, N, 3)
-        True actuator-side tensions [N].
-    chain : ndarray, shape (B, N, N, 3)
+        Joint angles [rad] and rates [rad/s]; ``theta_y`` and its rate stay zero on a planar robot
+        (``bending_axes`` 1).
+    actuator : ndarray, shape (B, N, n)
+        True actuator-side tensions [N], ``n`` tendons per set.
+    chain : ndarray, shape (B, N, N, n)
         ``T[k, j, i]`` [N], every tendon across every joint it crosses (zero where ``k > j``).
-    joint_side : ndarray, shape (B, N, 3)
+    joint_side : ndarray, shape (B, N, n)
         ``T[j, j, i]`` [N], the diagonal of ``chain``.
     """
 
@@ -193,6 +199,8 @@ class Plant:
         self.dt = float(dt)
         self.batch = int(batch)
         self.psi = tendon_azimuths(self.geometry)
+        self.n_tendons = self.geometry.n_tendons
+        self.planar = self.geometry.bending_axes == 1
         self.stiffness = self.dynamics.stiffness_for(recipe, self.geometry)
         self.inertia = self.dynamics.inertia_for(recipe, self.geometry)
         self.gain = recipe.actuation.gain_n_per_rad
@@ -201,15 +209,16 @@ class Plant:
         self.isotropic = self.dynamics.stiffness is not None or not sectors
         damping = 2.0 * self.dynamics.damping_ratio * np.sqrt(self.stiffness * self.inertia)
         # The elastic return's stiffness in each sector: the tendons with b > 0 (bit i of the sector's index).
-        u = np.stack([np.cos(self.psi), np.sin(self.psi)], axis=-1)  # (N, 3, 2)
-        pulls = (np.arange(8)[:, None] >> np.arange(3)[None, :]) & 1  # (8 sectors, 3 tendons)
+        nt = self.n_tendons
+        u = np.stack([np.cos(self.psi), np.sin(self.psi)], axis=-1)  # (N, n, 2)
+        pulls = (np.arange(2**nt)[:, None] >> np.arange(nt)[None, :]) & 1  # (2^n sectors, n tendons)
         if self.isotropic:
             k_sector = np.broadcast_to(self.stiffness * np.eye(2), (self.geometry.n_modules, 1, 2, 2))
         else:
             r = self.geometry.hole_radius
             k_sector = r * self.gain * np.einsum("qi,kia,kib->kqab", pulls, u, u)
         self.phi, self.gamma = _sector_matrices(self.inertia, k_sector, damping, self.dt)
-        self._bits = np.array([1, 2, 4])
+        self._bits = 1 << np.arange(nt)
         self.a_act = np.exp(-self.dt / self.dynamics.actuator_tau)
         self.stepper = TransmissionStepper(self.geometry, recipe.friction, recipe.effects, self.dt, self.batch)
         self.reset()
@@ -221,11 +230,11 @@ class Plant:
         return ((own_bend(theta, self.psi) > 0) * self._bits).sum(axis=-1)
 
     def crossing_jacobian(self, theta: NDArray) -> NDArray[np.float64]:
-        """``dl_kji/dtheta_k`` [m/rad], shape (B, N, N, 3, 2): exact under ``"full"``; own set at first order else."""
+        """``dl_kji/dtheta_k`` [m/rad], shape (B, N, N, n, 2): exact under ``"full"``; own set at first order else."""
         if self.full:
             return crossing_jacobian(theta, self.geometry)
         n = self.geometry.n_modules
-        jac = np.zeros(np.shape(theta)[:-2] + (n, n, 3, 2))
+        jac = np.zeros(np.shape(theta)[:-2] + (n, n, self.n_tendons, 2))
         own = -self.geometry.hole_radius * np.stack([np.cos(self.psi), np.sin(self.psi)], axis=-1)
         jac[..., np.arange(n), np.arange(n), :, :] = own
         return jac
@@ -250,21 +259,24 @@ class Plant:
         return elastic_return(theta, self.psi, self.gain, self.geometry.hole_radius)
 
     def reset(self, actuator: NDArray | None = None) -> None:
-        """Straight robots at rest; actuator tensions ``actuator`` (B, N, 3) [N] (default: 1 N)."""
+        """Straight robots at rest; actuator tensions ``actuator`` (B, N, n) [N] (default: 1 N)."""
         n = self.geometry.n_modules
         self.theta = np.zeros((self.batch, n, 2))
         self.omega = np.zeros((self.batch, n, 2))
-        self.actuator = np.ones((self.batch, n, 3)) if actuator is None else np.array(actuator, dtype=float)
+        shape = (self.batch, n, self.n_tendons)
+        self.actuator = np.ones(shape) if actuator is None else np.array(actuator, dtype=float)
+        if self.actuator.shape != shape:
+            raise ConfigError(f"the plant's actuator tensions need shape {shape}, got {self.actuator.shape}")
         self.stepper.reset()
         self.joint_side, self.sigma = self.stepper.step(self.theta, self.actuator)
 
     @property
     def chain(self) -> NDArray[np.float64]:
-        """``T[k, j, i]`` [N] of every robot, shape (B, N, N, 3), zero where ``k > j``."""
+        """``T[k, j, i]`` [N] of every robot, shape (B, N, N, n), zero where ``k > j``."""
         return self.stepper.chain
 
     def advance(self, command: NDArray, duration: float) -> None:
-        """Hold the commanded actuator tensions ``command`` (B, N, 3) [N] for ``duration`` [s]."""
+        """Hold the commanded actuator tensions ``command`` (B, N, n) [N] for ``duration`` [s]."""
         steps = int(round(duration / self.dt))
         if steps < 1 or abs(steps * self.dt - duration) > 1e-9:
             raise ConfigError(f"the controller period {duration} s must be a multiple of the plant step {self.dt} s")
@@ -275,10 +287,14 @@ class Plant:
                 tau = self.static_moments(self.theta, self.chain)
             else:  # from the joint sides the stepper returns: no chain need be formed
                 tau = joint_torque(self.joint_side, self.psi, self.geometry.hole_radius)
+            if self.planar:  # the hinge's bearing reacts the moment about the other axis
+                tau[..., 1] = 0.0
             q = self.sector(self.theta)
             phi, gamma = self.phi[joints, q], self.gamma[joints, q]  # (B, N, 4, 4), (B, N, 4, 2)
             x = np.concatenate([self.theta, self.omega], axis=-1)
             x = np.einsum("bkij,bkj->bki", phi, x) + np.einsum("bkij,bkj->bki", gamma, tau)
+            if self.planar:  # theta_y and its rate: a sector's stiffness may couple the axes, the hinge does not
+                x[..., 1::2] = 0.0
             self.theta, self.omega = x[..., :2], x[..., 2:]
             self.actuator = self.a_act * self.actuator + (1.0 - self.a_act) * command
             self.joint_side, self.sigma = self.stepper.step(self.theta, self.actuator)

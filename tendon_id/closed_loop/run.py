@@ -2,12 +2,14 @@
 
 Every estimator drives its own robot; the robots share the seed's step direction and the
 same sensor-noise draws (common random numbers), so their differences are the estimators'.
+Any robot runs: ``n`` tendons per set, and a planar robot (``bending_axes`` 1) steps in x, its
+bending plane, towards +x or -x as the seed draws.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +23,7 @@ from tendon_id.errors import ConfigError
 from tendon_id.sim import Recipe
 from tendon_id.sim.motion import min_jerk_at, min_jerk_duration
 
-__all__ = ["STEP_TESTS", "ClosedLoopRun", "StepTest", "loop_metrics", "run_step_test"]
+__all__ = ["STEP_TESTS", "ClosedLoopRun", "StepTest", "loop_metrics", "run_step_test", "step_test"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +76,21 @@ STEP_TESTS = {
 }
 
 
+def step_test(regime: str, n_modules: int) -> StepTest:
+    """The regime of :data:`STEP_TESTS` on a robot of ``n_modules``: the same step on its last 3 or 6 joints.
+
+    The paper's robot (12 modules) gets :data:`STEP_TESTS`' own tests; a 6-module robot's
+    Posterior-6 steps every joint.
+    """
+    if regime not in STEP_TESTS:
+        raise ConfigError(f"unknown step regime {regime!r}; known: {', '.join(STEP_TESTS)}")
+    paper = STEP_TESTS[regime]
+    k = len(paper.joints)
+    if n_modules < k:
+        raise ConfigError(f"step test {regime} moves {k} joints, but the robot has {n_modules} modules")
+    return replace(paper, joints=tuple(range(n_modules - k + 1, n_modules + 1)))
+
+
 @dataclass(frozen=True)
 class ClosedLoopRun:
     """Traces of one step test, one row per estimator, sampled at the controller's rate.
@@ -84,20 +101,22 @@ class ClosedLoopRun:
     t : ndarray, shape (F,)
         Time [s].
     direction : ndarray, shape (2,)
-        Unit bending direction of the step.
+        Unit bending direction of the step (``(+-1, 0)`` on a planar robot).
     ref : ndarray, shape (F, N, 2)
         Reference angles [rad].
     angles : ndarray, shape (E, F, N, 2)
         Measured (encoder) angles [rad].
-    joint_side, estimate : ndarray, shape (E, F, N, 3)
-        True joint-side tensions and the estimator's [N].
-    chain, chain_estimate : ndarray, shape (E, F, N, N, 3)
+    joint_side, estimate : ndarray, shape (E, F, N, n)
+        True joint-side tensions and the estimator's [N], ``n`` tendons per set.
+    chain, chain_estimate : ndarray, shape (E, F, N, N, n)
         The true chain ``T[k, j, i]`` and the estimator's [N] (zero where ``k > j``; NaN where the
         estimator gives no estimate, as a streaming engine gives only each set's own joint).
-    command : ndarray, shape (E, F, N, 3)
+    command : ndarray, shape (E, F, N, n)
         Actuator-side commands [N].
-    sigma : ndarray of int8, shape (E, F, N-1, N, 3)
+    sigma : ndarray of int8, shape (E, F, N-1, N, n)
         True slip state per guide, set and tendon at each sample.
+    bending_axes : int
+        The robot's: 2, or 1 for a planar robot (whose ``theta_y`` is zero throughout).
     """
 
     test: StepTest
@@ -113,6 +132,7 @@ class ClosedLoopRun:
     seed: int
     chain: NDArray | None = None
     chain_estimate: NDArray | None = None
+    bending_axes: int = 2
 
     def traces(self) -> dict:
         """What a Fig. 6 needs, as JSON lists: the stepped joints' reference and measured angles [deg]."""
@@ -125,6 +145,7 @@ class ClosedLoopRun:
             "amplitude_deg": self.test.amplitude_deg,
             "lead_s": self.test.lead_s,
             "hold_s": self.test.hold_s,
+            "bending_axes": self.bending_axes,
             "ref_deg": np.rad2deg(self.ref[:, idx]).round(4).tolist(),
             "angles_deg": np.rad2deg(self.angles[:, :, idx]).round(4).tolist(),
         }
@@ -174,8 +195,12 @@ def run_step_test(
     rng = np.random.default_rng([seed, 7])  # stream 7: the step direction
     heading = rng.uniform(0.0, 2.0 * np.pi)
     direction = np.array([np.cos(heading), np.sin(heading)])
+    planar = recipe.robot.bending_axes == 1
+    if planar:  # a hinge bends in x alone: the seed draws which way
+        direction = np.array([1.0 if direction[0] >= 0 else -1.0, 0.0])
     plant = Plant(recipe, len(estimators), dynamics, plant_dt)
-    plant.reset(np.array([np.full((n, 3), g.pretension_n) for g in gains]))
+    nt = plant.n_tendons
+    plant.reset(np.array([np.full((n, nt), g.pretension_n) for g in gains]))
     ctrl = [
         HybridController(
             g,
@@ -200,11 +225,11 @@ def run_step_test(
 
     e = len(estimators)
     angles = np.zeros((e, frames, n, 2))
-    joint_side, estimate, command = (np.zeros((e, frames, n, 3)) for _ in range(3))
-    chain, chain_estimate = np.zeros((e, frames, n, n, 3)), np.zeros((e, frames, n, n, 3))
+    joint_side, estimate, command = (np.zeros((e, frames, n, nt)) for _ in range(3))
+    chain, chain_estimate = np.zeros((e, frames, n, n, nt)), np.zeros((e, frames, n, n, nt))
     crossing = on_path(n)[:, :, None]
     diagonal = np.arange(n)
-    sigma = np.zeros((e, frames, n - 1, n, 3), dtype=np.int8)
+    sigma = np.zeros((e, frames, n - 1, n, nt), dtype=np.int8)
     sensors = recipe.sensors
     for f in range(frames):
         # The same noise draws for every robot (common random numbers): streams 8 and 9 per frame.
@@ -232,11 +257,12 @@ def run_step_test(
         seed=int(seed),
         chain=chain,
         chain_estimate=chain_estimate,
+        bending_axes=recipe.robot.bending_axes,
     )
 
 
 def _read_chain(sensors, rng: np.random.Generator, chain: NDArray) -> NDArray:
-    """The oracle's load cells on every tendon at every joint it crosses, (N, N, 3) [N]: each set's own
+    """The oracle's load cells on every tendon at every joint it crosses, (N, N, n) [N]: each set's own
     joint first, so those readings are the same draws whether or not the rest is read."""
     diagonal = np.arange(chain.shape[0])
     own = sensors.read_tensions(rng, chain[diagonal, diagonal])
@@ -251,7 +277,8 @@ def loop_metrics(run: ClosedLoopRun, estimator: int, loop: int, band_deg: float 
     Rise time is the mean over the stepped joints of the 10-90 % rise of the angle projected on
     the step direction; settling time is when the last stepped joint enters the ``band_deg``
     band for good (the regime is settled when every stepped joint is); RMS error [deg] is over
-    the loop's samples, both axes and the stepped joints, against the shaped reference.
+    the loop's samples, the bending axes (both, or x on a planar robot) and the stepped joints,
+    against the shaped reference.
     ``None`` where a joint never rises or never settles.
     """
     win = run.loop_window(loop)
@@ -263,9 +290,10 @@ def loop_metrics(run: ClosedLoopRun, estimator: int, loop: int, band_deg: float 
     per_joint: list[StepMetrics] = [step_metrics(t, y[:, j], start, target, band_deg) for j in range(len(idx))]
     rises = [m.rise_s for m in per_joint]
     settles = [m.settle_s for m in per_joint]
-    ref = np.rad2deg(run.ref[win][:, idx])
+    axes = slice(0, run.bending_axes)  # a hinge's theta_y is zero by construction: no error to average in
+    ref = np.rad2deg(run.ref[win][:, idx, axes])
     return {
         "rise_s": None if None in rises else float(np.mean(rises)),
         "settle_s": None if None in settles else float(np.max(settles)),
-        "rms_deg": rms_error(np.rad2deg(run.angles[estimator][win][:, idx]), ref),
+        "rms_deg": rms_error(np.rad2deg(run.angles[estimator][win][:, idx, axes]), ref),
     }

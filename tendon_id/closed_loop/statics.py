@@ -55,16 +55,16 @@ def _rotation_derivatives(theta: NDArray) -> tuple[NDArray, NDArray]:
 
 
 def crossing_jacobian(theta: NDArray, geometry: RobotGeometry) -> NDArray[np.float64]:
-    """``dl_kji / dtheta_k`` [m/rad] of every tendon across every joint it crosses, shape (..., N, N, 3, 2).
+    """``dl_kji / dtheta_k`` [m/rad] of every tendon across every joint it crosses, shape (..., N, N, n, 2).
 
     ``[..., k, j, i, :]``: the segment of tendon ``i`` of set ``j`` across joint ``k`` (0-based),
     zero where the set does not cross the joint (``k > j``).  The segment is ``s = R (u + h e_z) -
     (u - h e_z)`` (``u`` the hole's position on the disk, ``h`` half the joint gap), so
-    ``dl/dtheta = s . (dR/dtheta (u + h e_z)) / |s|``.
+    ``dl/dtheta = s . (dR/dtheta (u + h e_z)) / |s|``.  ``n`` is the robot's tendons per set.
     """
     theta = np.asarray(theta, dtype=float)
     n = geometry.n_modules
-    psi = tendon_azimuths(geometry)  # (N sets, 3)
+    psi = tendon_azimuths(geometry)  # (N sets, n tendons)
     r, h = geometry.hole_radius, 0.5 * geometry.joint_gap
     ux, uy = r * np.cos(psi), r * np.sin(psi)
     R = joint_rotation(theta)[..., :, None, None, :, :]  # (..., N joints, 1, 1, 3, 3)
@@ -87,10 +87,10 @@ def tendon_moments(chain: NDArray, jacobian: NDArray) -> NDArray[np.float64]:
 
     Parameters
     ----------
-    chain : ndarray, shape (..., N, N, 3)
+    chain : ndarray, shape (..., N, N, n)
         ``T[k, j, i]`` [N], the tension of tendon ``i`` of set ``j`` across joint ``k``; entries off
         the path (``k > j``, NaN in a model's ``predict_chain``) are not read.
-    jacobian : ndarray, shape (..., N, N, 3, 2)
+    jacobian : ndarray, shape (..., N, N, n, 2)
         :func:`crossing_jacobian`.
     """
     chain = np.where(on_path(chain.shape[-2])[:, :, None], chain, 0.0)
@@ -185,7 +185,7 @@ def elastic_return(theta: NDArray, psi: NDArray, gain_n_per_rad: float, hole_rad
     joint must return ``r g sum_i [theta . u_i]_+ u_i``: stiffness ``g r`` towards a tendon, half
     that between two.  It is the gradient of :func:`elastic_energy`, so it is conservative.
     """
-    u = np.stack([np.cos(psi), np.sin(psi)], axis=-1)  # (N, 3, 2)
+    u = np.stack([np.cos(psi), np.sin(psi)], axis=-1)  # (N, n, 2)
     return -hole_radius * gain_n_per_rad * np.einsum("...ki,kia->...ka", np.maximum(own_bend(theta, psi), 0.0), u)
 
 
