@@ -39,6 +39,8 @@ GENERIC = (
     "tendon_id.zoo.testing",
     "tendon_id.data.frame",
     "tendon_id.data.mapping",
+    "tendon_id.data.patterns",
+    "tendon_id.data.rosbag",
     "tendon_id.report.diagnosis",
     "tendon_id.report.diagnosis_lead",
 )
