@@ -247,9 +247,9 @@ class PGCHTCNS(GuardedCascade):
 
     @property
     def n_tendons_(self) -> int:
-        """Tendons per set the model was fitted on (3 for a model saved before the count was stored)."""
+        """Tendons per set the model was fitted on (3 for a model saved before the count was stored, or hand-built)."""
         self.check_fitted()
-        return self._n_tendons
+        return getattr(self, "_n_tendons", 3)
 
     def predict_chain(self, data: Recording | Sequence[Recording]) -> np.ndarray:
         """Every ``T[k, j, i]`` [N], shape (T, N, N, n), NaN where ``k > j``; batched over time and sets."""
