@@ -37,7 +37,7 @@ from typing import Any
 
 from tendon_id.checks import check_keys
 from tendon_id.errors import ConfigError
-from tendon_id.geometry import MEASURED, RobotGeometry
+from tendon_id.robot import MEASURED, RobotGeometry
 
 try:
     import tomllib
