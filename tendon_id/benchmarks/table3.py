@@ -19,7 +19,7 @@ from tendon_id.benchmarks.jobs import job_runner
 from tendon_id.benchmarks.splits import paper_split
 from tendon_id.benchmarks.tables import model_factory
 from tendon_id.checks import check_choices, check_count
-from tendon_id.closed_loop import ORACLE, STEP_TESTS, in_loop, joint_torque, loop_metrics, run_step_test
+from tendon_id.closed_loop import ORACLE, STEP_TESTS, in_loop, joint_torque, loop_metrics, run_step_test, step_test
 from tendon_id.closed_loop.statics import crossing_jacobian, on_path, tendon_moments
 from tendon_id.datasets import load_recipe
 from tendon_id.geometry import tendon_azimuths
@@ -47,20 +47,21 @@ PAPER_TABLE3 = {
 def _diagnostics(run, b: int, loop: int, recipe) -> dict:
     """Why a loop went as it did: the estimate's error at the stepped joints, and their slip states."""
     psi, hole_radius = tendon_azimuths(recipe.robot), recipe.robot.hole_radius
+    axes = slice(0, recipe.robot.bending_axes)  # a hinge's bearing takes the moment about its other axis
     win = run.loop_window(loop)
     idx = np.asarray(run.test.joints) - 1
     err = run.estimate[b][win][:, idx] - run.joint_side[b][win][:, idx]
     # What the outer loop feels: the joint torque the estimate implies, against the true one.
-    torque_err = joint_torque(err, psi[idx], hole_radius)
-    sig = run.sigma[b][win][:, :, idx]  # (F, guides, stepped sets, 3)
+    torque_err = joint_torque(err, psi[idx], hole_radius)[..., axes]
+    sig = run.sigma[b][win][:, :, idx]  # (F, guides, stepped sets, n tendons)
     on = np.arange(sig.shape[1])[:, None] < idx[None, :]  # guides each stepped set passes
-    states = sig[:, on]  # (F, passages, 3)
+    states = sig[:, on]  # (F, passages, n tendons)
     move = run.t[win] - run.t[win][0] < run.test.move_s(recipe.v_max_deg_s) + 0.5  # the move, then hold
     # The intermediate joints: every set's tension at each joint it passes through on its way to its
     # own (k < j), the estimates terminal-only supervision never sees and the controller feeds forward.
     passing = on_path(psi.shape[0]) & ~np.eye(psi.shape[0], dtype=bool)
     chain_err = np.where(passing[:, :, None], np.nan_to_num(run.chain_estimate[b][win]) - run.chain[b][win], 0.0)
-    load_err = tendon_moments(chain_err, crossing_jacobian(run.angles[b][win], recipe.robot))  # (F, N, 2)
+    load_err = tendon_moments(chain_err, crossing_jacobian(run.angles[b][win], recipe.robot))[..., axes]  # (F, N, m)
     return {
         "intermediate_rmse_n": float(np.sqrt(np.mean(chain_err[:, passing] ** 2))),
         "load_error_nm": float(np.sqrt(np.mean(np.sum(load_err**2, axis=-1)))),
@@ -74,10 +75,14 @@ def _diagnostics(run, b: int, loop: int, recipe) -> dict:
 
 
 def table3_job(recipe_name: str, models: dict, regime: str, seed: int) -> tuple[list[dict], dict]:
-    """One regime and seed with every estimator in the loop: rows per estimator and loop, and the traces."""
+    """One regime and seed with every estimator in the loop: rows per estimator and loop, and the traces.
+
+    The regime steps the robot's last 3 or 6 joints (:func:`~tendon_id.closed_loop.step_test`): on the
+    paper's 12 modules, :data:`~tendon_id.closed_loop.STEP_TESTS` itself.
+    """
     recipe = load_recipe(recipe_name)
     estimators = [in_loop(name, models.get(name), recipe.dt) for name in models]
-    run = run_step_test(recipe, estimators, STEP_TESTS[regime], seed=seed)
+    run = run_step_test(recipe, estimators, step_test(regime, recipe.robot.n_modules), seed=seed)
     rows = []
     for b, name in enumerate(run.estimators):
         for loop in (1, 2):

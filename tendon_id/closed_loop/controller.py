@@ -205,7 +205,7 @@ class HybridController:
         n = estimate.shape[0]
         own = estimate[np.arange(n), np.arange(n)]
         shape = np.where(self._passing, np.nan_to_num(estimate) / own[None], 0.0)  # T_hat[k, j] / T_hat[j, j]
-        jac = self.robot.crossing_jacobian(angles[None])[0]  # (N, N, 3, 2)
+        jac = self.robot.crossing_jacobian(angles[None])[0]  # (N, N, n, 2)
         load = self.robot.gravity_moments(angles[None])[0]
         desired = np.empty(estimate.shape[1:])
         for k in range(n - 1, -1, -1):

@@ -25,6 +25,7 @@ COLOURS = {
 def step_figure(traces: dict, regime: str, rows: list[dict] | None = None):
     """Fig. 6 for one regime: the stepped joints' ``theta_x`` and ``theta_y`` of each estimator.
 
+    A planar robot's (``bending_axes`` 1 in the traces) ``theta_y`` is zero throughout: ``theta_x`` alone.
     Dashed black: the commanded amplitude, and the shaped reference. Vertical dotted lines: the
     rise (10-90 %) and settling times of PG-CHTC and the Capstan baseline in seed 0's run.
     """
@@ -33,8 +34,10 @@ def step_figure(traces: dict, regime: str, rows: list[dict] | None = None):
     t = np.asarray(tr["t"])
     ref = np.asarray(tr["ref_deg"])  # (F, joints, 2)
     ang = np.asarray(tr["angles_deg"])  # (E, F, joints, 2)
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=True)
-    for ax, (axis, label) in zip(axes, ((0, r"$\theta_x$"), (1, r"$\theta_y$"))):
+    planes = ((0, r"$\theta_x$"), (1, r"$\theta_y$"))[: tr.get("bending_axes", 2)]
+    fig, axes = plt.subplots(1, len(planes), figsize=(6 * len(planes), 4.2), sharey=True, squeeze=False)
+    axes = axes[0]
+    for ax, (axis, label) in zip(axes, planes):
         for e, name in enumerate(tr["estimators"]):
             colour = COLOURS.get(name, None)
             width = 1.6 if name in ("pg-chtc", "capstan-nonsmooth") else 0.9
@@ -53,7 +56,7 @@ def step_figure(traces: dict, regime: str, rows: list[dict] | None = None):
         ax.set_title(f"{label} of joints {tr['joints'][0]}-{tr['joints'][-1]}", fontsize=10)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("joint angle [deg]")
-    axes[1].legend(fontsize=8, loc="upper right")
+    axes[-1].legend(fontsize=8, loc="upper right")
     fig.suptitle(f"Closed loop at 10 Hz, {regime}: 0 -> {tr['amplitude_deg']:g} deg -> 0", fontsize=11)
     fig.tight_layout()
     return fig
@@ -149,7 +152,7 @@ def write_table3_page(
     page.paragraph(
         "The last four columns say why: the estimator's joint-side error at the stepped joints during the loop "
         "(against the simulator's truth), the RMS error of the joint torque that estimate implies (what the "
-        "configuration loop feels: a bias common to a joint's three tendons exerts none), and the fraction "
+        "configuration loop feels: a bias common to a joint's tendons spread evenly exerts none), and the fraction "
         "of the stepped sets' guide passages in stick.",
         cls="note",
     )

@@ -95,3 +95,24 @@ def test_benchmark_table3_cli(tmp_path, capsys):
     names = {r["estimator"] for r in doc["rows"]}
     assert names == {"pg-chtc", "capstan-nonsmooth", "pg-chtc-ns", "proximal", "oracle"}
     assert {r["regime"] for r in doc["rows"]} == {"posterior-3", "posterior-6"}
+
+
+def test_a_planar_robots_figure_draws_theta_x_alone():
+    from tendon_id.report.closed_loop import step_figure
+
+    t = np.arange(0.0, 2.0, 0.1)
+    traces = {
+        "t": t.tolist(),
+        "estimators": ["oracle"],
+        "joints": [5, 6],
+        "direction": [-1.0, 0.0],
+        "amplitude_deg": 5.0,
+        "lead_s": 0.5,
+        "hold_s": 0.75,
+        "bending_axes": 1,
+        "ref_deg": np.zeros((len(t), 2, 2)).tolist(),
+        "angles_deg": np.zeros((1, len(t), 2, 2)).tolist(),
+    }
+    assert len(step_figure({"posterior-3": traces}, "posterior-3").axes) == 1
+    traces["bending_axes"] = 2
+    assert len(step_figure({"posterior-3": traces}, "posterior-3").axes) == 2
