@@ -88,8 +88,6 @@ class _Baseline(TransmissionModel):
     mode_ : str
         ``"unit"`` or ``"end-to-end"``.
     n_parameters_ : int
-    n_tendons_ : int
-        Tendons per set of the training data (the output's width).
     history_ : dict
         Per-epoch train and validation losses, the best validation loss and its epoch.
     """
@@ -213,7 +211,7 @@ class _Baseline(TransmissionModel):
 
     @property
     def n_tendons_(self) -> int:
-        """Tendons per set the model was fitted on (3 for a model saved before the count was stored)."""
+        """Tendons per set the model was fitted on: the output's width (3 if saved before the count was)."""
         self.check_fitted()
         return int(self.net_.cfg.n_tendons)
 
