@@ -84,6 +84,9 @@ sphinx_gallery_conf = {
     "min_reported_time": 1,
     # The timing pages load DataTables and jQuery from a CDN: left out, so the site requests nothing online.
     "write_computation_times": False,
+    # Examples run in separate processes, one per core (at most 4): each is a seeded, self-contained
+    # script, so their pages are the same; CI's docs step halves on 2 cores.
+    "parallel": max(1, min(4, os.cpu_count() or 1)),
 }
 
 # -- HTML ------------------------------------------------------------------------------------
