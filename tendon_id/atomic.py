@@ -7,6 +7,7 @@ files that belong together.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -21,6 +22,11 @@ from pathlib import Path
 import numpy as np
 
 from tendon_id.errors import ConfigError
+
+try:  # POSIX; write_group only holds the interrupt without it
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None
 
 
 def _umask() -> int:
@@ -149,9 +155,21 @@ def record_writes() -> Iterator[list[Path]]:
         _journal = outer
 
 
+class Terminated(KeyboardInterrupt):
+    """A SIGTERM, raised where a Ctrl-C would be, so that it unwinds the same way (temporary files removed)."""
+
+
+def raise_terminated(signum, frame) -> None:
+    """SIGTERM handler: raise :class:`Terminated` (the command line installs it for its run)."""
+    raise Terminated(f"signal {signum}")
+
+
+_HELD = (signal.SIGINT, signal.SIGTERM)
+
+
 @contextmanager
 def hold_interrupt() -> Iterator[None]:
-    """Hold a Ctrl-C (SIGINT) until the block ends, then raise it.
+    """Hold a Ctrl-C (SIGINT) or a SIGTERM until the block ends, then deliver it.
 
     A model folder or a report with its JSON is several files, each written atomically; holding
     the interrupt over the group keeps the set consistent (no new ``arrays.npz`` beside an old
@@ -161,13 +179,47 @@ def hold_interrupt() -> Iterator[None]:
         yield
         return
     caught: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    previous = {sig: signal.signal(sig, lambda signum, frame: caught.append(signum)) for sig in _HELD}
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
-    if caught and callable(previous):  # the default handler raises KeyboardInterrupt
-        previous(signal.SIGINT, None)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    for sig in dict.fromkeys(caught):  # each signal once, in the order it came
+        if callable(previous[sig]):  # Python's SIGINT handler raises KeyboardInterrupt, ours Terminated
+            previous[sig](sig, None)
+        elif previous[sig] == signal.SIG_DFL:
+            signal.raise_signal(sig)
+
+
+@contextmanager
+def write_group(folder: str | os.PathLike) -> Iterator[Path]:
+    """Write files that belong together in ``folder``: one writer at a time, and no interrupt between them.
+
+    An exclusive ``flock`` on the folder itself makes concurrent writers (two runs with one
+    ``--out``) take turns, so the last one's files are all that is left, never a mix; the
+    interrupt is held as :func:`hold_interrupt` holds it.  The lock needs no file of its own,
+    so nothing is left behind.  Where ``fcntl`` is missing (Windows) only the interrupt is held.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        if fcntl is not None:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        with hold_interrupt():
+            yield folder
+    finally:
+        os.close(fd)  # closing the descriptor releases the lock
+
+
+def sha256_file(path: str | os.PathLike) -> str:
+    """Hex SHA-256 of a file's bytes, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def check_writable(

@@ -14,13 +14,16 @@ Every option that takes a value names it in ``--help`` with a metavar of its own
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
+from contextlib import contextmanager
 
 import typer
 import typer.core
 
 from tendon_id import __version__
-from tendon_id.atomic import record_writes
+from tendon_id.atomic import raise_terminated, record_writes
 from tendon_id.cli.common import geometry_warnings
 from tendon_id.errors import ConfigError, TendonIdError
 from tendon_id.progress import interrupt_message
@@ -106,21 +109,21 @@ def main(argv: list[str] | None = None) -> int:
     argv = bare_json(list(sys.argv[1:] if argv is None else argv))
     command = typer.main.get_command(app)
     reset_progress()
-    with record_writes() as written, geometry_warnings():
+    with record_writes() as written, geometry_warnings(), sigterm_as_interrupt() as terms:
         try:
             rv = command.main(args=argv, prog_name="tendon-id", standalone_mode=False)
             if rv == 130:  # typer's answer to a Ctrl-C (no command returns a number)
-                return _interrupted(written)
+                return _interrupted(written, terms)
             return int(rv) if isinstance(rv, int) else 0
         except (typer.Exit, typer.Abort) as exc:
             if isinstance(exc.__cause__, KeyboardInterrupt):  # typer turns a Ctrl-C into Exit(130), click into Abort
-                return _interrupted(written)
+                return _interrupted(written, terms)
             if isinstance(exc, typer.Exit):  # --help and friends
                 return exc.exit_code
             typer.echo("aborted", err=True)
             return 1
         except KeyboardInterrupt:
-            return _interrupted(written)
+            return _interrupted(written, terms)
         except ConfigError as exc:
             typer.echo(f"tendon-id: error: {exc.message_for(flags(command, argv))}", err=True)
             return 2
@@ -156,9 +159,38 @@ def flags(command, argv: list[str]) -> dict[str, str]:
     return out
 
 
-def _interrupted(written: list) -> int:
-    """Ctrl-C: one line, where the work stopped and which whole files were written; no traceback."""
-    typer.echo(f"tendon-id: {interrupt_message(written)}", err=True)
+@contextmanager
+def sigterm_as_interrupt():
+    """For the run, a SIGTERM raises :class:`~tendon_id.atomic.Terminated`, which unwinds as a Ctrl-C does.
+
+    So a ``kill`` or a job scheduler's stop removes the temporary files and reports what was
+    written, as a Ctrl-C does (exit 143, 128 + SIGTERM). Yields the list of SIGTERMs received
+    (the exception itself may reach :func:`main` as typer's exit code 130). Outside the main
+    thread nothing changes.
+    """
+    received: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield received
+        return
+
+    def terminate(signum, frame):
+        received.append(signum)
+        raise_terminated(signum, frame)
+
+    previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield received
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _interrupted(written: list, terms: list) -> int:
+    """Ctrl-C or SIGTERM: one line, where the work stopped and which whole files were written; no traceback."""
+    message = interrupt_message(written)
+    if terms:
+        typer.echo(f"tendon-id: terminated (SIGTERM); {message}", err=True)
+        return 128 + signal.SIGTERM
+    typer.echo(f"tendon-id: {message}", err=True)
     return 130
 
 

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tendon_id.atomic import atomic_write
+from tendon_id.atomic import atomic_write, write_group
 from tendon_id.data.columns import PANDAS_COW
 from tendon_id.errors import RecordingError
 
@@ -267,7 +267,7 @@ def write_frame(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> Pat
     """
     suffix = check_suffix(path)
     try:
-        meta_text = meta_json(meta, indent=2) + "\n"
+        meta_json(meta)  # checked before any file is touched
     except (TypeError, ValueError) as exc:
         raise RecordingError(f"metadata is not JSON serialisable ({first_line(exc)})", file=str(path)) from exc
     try:
@@ -275,12 +275,23 @@ def write_frame(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> Pat
         if suffix in SUFFIXES_PARQUET:
             write_parquet(frame, meta, path)
         else:
-            # Sidecar first: a reader that sees the new CSV also sees its metadata.
-            atomic_write(sidecar(path), lambda tmp: Path(tmp).write_text(meta_text, encoding="utf-8"))
-            atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, lineterminator="\n", encoding="utf-8"))
+            write_csv_pair(frame, meta, path)
     except OSError as exc:
         raise RecordingError(f"cannot write ({first_line(exc)})", file=str(path)) from exc
     return path
+
+
+def write_csv_pair(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> None:
+    """Write a CSV file and its sidecar as one unit, each atomically, the sidecar first.
+
+    :func:`~tendon_id.atomic.write_group` makes concurrent writers to one folder take turns (the
+    last writer's pair is what is left, never one's data with the other's metadata) and holds a
+    Ctrl-C or SIGTERM until both files are in place.
+    """
+    text = meta_json(meta, indent=2) + "\n"
+    with write_group(path.parent):
+        atomic_write(sidecar(path), lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+        atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, lineterminator="\n", encoding="utf-8"))
 
 
 def write_parquet(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> None:

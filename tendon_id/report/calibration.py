@@ -91,8 +91,8 @@ def run_calibration(
     recordings = family.recordings(recordings, "recordings")
     report = report or (lambda line: None)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     m.fit(recordings)
+    out.mkdir(parents=True, exist_ok=True)  # after the fit: data it refuses leaves no empty folder
     doc = family.calibration_doc(m, recordings)
     written = [write_json_atomic(out / "calibration.json", doc)]
     for line in family.calibration_lines(m, doc):

@@ -12,7 +12,9 @@
 from __future__ import annotations
 
 import abc
+import hashlib
 import inspect
+import io
 import json
 import os
 from pathlib import Path
@@ -20,11 +22,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from tendon_id.atomic import atomic_write, write_text_atomic
+from tendon_id.atomic import atomic_write, write_group, write_text_atomic
 from tendon_id.checks import check_keys
 from tendon_id.errors import TendonIdError
 
 FORMAT_VERSION = 1
+#: The arrays' file of a model folder, and the key of ``model.json`` that records its digest.
+ARRAYS_FILE = "arrays.npz"
+ARRAYS_KEY = "arrays"
 
 
 class NotFittedError(TendonIdError, RuntimeError):
@@ -87,14 +92,30 @@ class Estimator(abc.ABC):
         return {k: _jsonable(v) for k, v in self.get_params().items()}
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write ``path/model.json`` and ``path/arrays.npz`` (atomically each). Returns the folder."""
+        """Write ``path/model.json`` and ``path/arrays.npz`` as one unit. Returns the folder.
+
+        Each file is written atomically; ``model.json`` records the SHA-256 of ``arrays.npz``,
+        which :func:`~tendon_id.zoo.load` checks, so a folder mixed from two saves (or a save cut
+        off between its files) is refused, never loaded. The pair is written under
+        :func:`~tendon_id.atomic.write_group`: one writer at a time per folder, no interrupt between.
+        """
         self.check_fitted()
         folder = Path(path)
-        folder.mkdir(parents=True, exist_ok=True)
         state, arrays = self._state()
-        doc = {"format": FORMAT_VERSION, "model": self.name, "params": self._json_params(), "state": state}
-        atomic_write(folder / "arrays.npz", lambda tmp: _savez(tmp, arrays))
-        write_text_atomic(folder / "model.json", json.dumps(doc, indent=2, sort_keys=True) + "\n")
+        buf = io.BytesIO()
+        np.savez(buf, **{k: np.asarray(v) for k, v in arrays.items()})
+        blob = buf.getvalue()
+        doc = {
+            "format": FORMAT_VERSION,
+            "model": self.name,
+            "params": self._json_params(),
+            "state": state,
+            ARRAYS_KEY: {"file": ARRAYS_FILE, "sha256": hashlib.sha256(blob).hexdigest(), "bytes": len(blob)},
+        }
+        text = json.dumps(doc, indent=2, sort_keys=True) + "\n"
+        with write_group(folder):
+            atomic_write(folder / ARRAYS_FILE, lambda tmp: _write_blob(tmp, blob))
+            write_text_atomic(folder / "model.json", text)
         return folder
 
     @classmethod
@@ -109,9 +130,9 @@ class Estimator(abc.ABC):
         return model
 
 
-def _savez(tmp: str, arrays: dict[str, np.ndarray]) -> None:
-    with open(tmp, "wb") as fh:
-        np.savez(fh, **{k: np.asarray(v) for k, v in arrays.items()})
+def _write_blob(tmp: str, blob: bytes) -> None:
+    """Write the arrays' bytes to the temporary file (one function, so tests can cut it off)."""
+    Path(tmp).write_bytes(blob)
 
 
 def _jsonable(v: Any) -> Any:

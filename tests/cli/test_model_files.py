@@ -1,5 +1,6 @@
 """A model folder is input too: a tampered or foreign one exits 2 with one line naming the file (issue 19)."""
 
+import hashlib
 import json
 import pickle
 import shutil
@@ -36,35 +37,76 @@ def _format(folder, version):
     (folder / "model.json").write_text(json.dumps(doc))
 
 
+def _resealed(write):
+    """Tamper with arrays.npz, then record its new digest in model.json: a folder whose files agree,
+    so the content checks behind the digest are what refuses it."""
+
+    def tamper(folder):
+        write(folder)
+        doc = json.loads((folder / "model.json").read_text())
+        blob = (folder / "arrays.npz").read_bytes()
+        doc["arrays"].update(sha256=hashlib.sha256(blob).hexdigest(), bytes=len(blob))
+        (folder / "model.json").write_text(json.dumps(doc))
+
+    return tamper
+
+
+def _mixed(folder):
+    """arrays.npz of another fit (of the same model) beside this model.json: two saves mixed."""
+    arrays = dict(np.load(folder / "arrays.npz"))
+    arrays = {k: v * 1.01 if v.dtype.kind == "f" else v for k, v in arrays.items()}
+    np.savez(folder / "arrays.npz", **arrays)
+
+
 CASES = {
     "missing model.json": ("cap", lambda f: (f / "model.json").unlink(), "no model.json"),
-    "missing arrays.npz": ("cap", lambda f: (f / "arrays.npz").unlink(), "arrays.npz is missing"),
+    "missing arrays.npz": ("cap", lambda f: (f / "arrays.npz").unlink(), "arrays.npz: missing"),
+    "arrays.npz of another save": ("cap", _mixed, "does not belong with model.json"),
+    "a cut-off arrays.npz": ("cap", lambda f: _truncate(f / "arrays.npz", 50), "does not belong with model.json"),
     "truncated JSON": ("cap", lambda f: _truncate(f / "model.json", 40), "not valid JSON"),
     "unknown format version": ("cap", lambda f: _format(f, 99), "unsupported model format 99"),
+    "a JSON list": ("cap", lambda f: (f / "model.json").write_text("[1, 2]"), "a JSON list, not an object"),
+    "not UTF-8": ("cap", lambda f: (f / "model.json").write_bytes(b'{"model": "\xff"}'), "not UTF-8"),
+    "nested 100 000 deep": ("cap", lambda f: (f / "model.json").write_text("[" * 100_000), "nested too deeply"),
+    "a model name that is a list": (
+        "cap",
+        lambda f: (f / "model.json").write_text(json.dumps({"format": 1, "model": ["capstan-simple"]})),
+        "must be a model's name",
+    ),
     "a pickle for arrays": (
         "cap",
-        lambda f: (f / "arrays.npz").write_bytes(pickle.dumps({"A": 1})),
+        _resealed(lambda f: (f / "arrays.npz").write_bytes(pickle.dumps({"A": 1}))),
         "never loads",
     ),
     "an object array": (
         "cap",
-        lambda f: np.savez(f / "arrays.npz", A=np.array([object()] * 3, dtype=object), B=np.ones((1, 3))),
+        _resealed(lambda f: np.savez(f / "arrays.npz", A=np.array([object()] * 3, dtype=object), B=np.ones((1, 3)))),
         "never loads",
     ),
     "arrays of the wrong shape": (
         "cap",
-        lambda f: np.savez(f / "arrays.npz", A=np.ones((2, 5)), B=np.ones((1, 3))),
+        _resealed(lambda f: np.savez(f / "arrays.npz", A=np.ones((2, 5)), B=np.ones((1, 3)))),
         "do not fit a 12-module capstan law",
     ),
-    "a truncated npz": ("cap", lambda f: _truncate(f / "arrays.npz", 50), "not a readable .npz"),
+    "a truncated npz": ("cap", _resealed(lambda f: _truncate(f / "arrays.npz", 50)), "not a readable .npz"),
     "foreign safetensors": (
         "mlp",
-        lambda f: np.savez(f / "arrays.npz", weights_safetensors=np.frombuffer(b"not safetensors", dtype=np.uint8)),
+        _resealed(
+            lambda f: np.savez(f / "arrays.npz", weights_safetensors=np.frombuffer(b"not safetensors", dtype=np.uint8))
+        ),
         "do not make a mlp model",
     ),
     # Valid safetensors of a narrower network than model.json describes: the tensors' shapes are off.
     "weights of another architecture": ("mlp", _widen, "do not make a mlp model"),
+    # A state entry the model needs, gone from model.json: blamed on model.json, not on arrays.npz.
+    "a missing state entry": ("cap", lambda f: _drop_state(f), "model.json: has no state entry"),
 }
+
+
+def _drop_state(folder):
+    doc = json.loads((folder / "model.json").read_text())
+    doc["state"].pop("n_modules")  # a capstan model needs it
+    (folder / "model.json").write_text(json.dumps(doc))
 
 
 @pytest.mark.parametrize("case", list(CASES))

@@ -162,12 +162,12 @@ def test_ctrl_c_while_writing_a_file_leaves_no_part_of_it(recording, tmp_path, m
     """Interrupted halfway through arrays.npz: no arrays.npz, no temporary file, no model.json."""
     import tendon_id.zoo.estimator as E
 
-    def half_then_interrupt(tmp, arrays):
+    def half_then_interrupt(tmp, blob):
         with open(tmp, "wb") as fh:
             fh.write(b"PK\x03\x04 half of a zip")
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(E, "_savez", half_then_interrupt)
+    monkeypatch.setattr(E, "_write_blob", half_then_interrupt)
     out = tmp_path / "m"
     code, _, err = run(capsys, "fit", "capstan-simple", "--data", str(recording), "--out", str(out))
     _assert_interrupted(code, err, "writing the model", "nothing written")
@@ -179,13 +179,13 @@ def test_a_ctrl_c_while_the_model_is_written_is_held_until_both_files_are_whole(
 ):
     import tendon_id.zoo.estimator as E
 
-    real = E._savez
+    real = E._write_blob
 
-    def savez_then_signal(tmp, arrays):
-        real(tmp, arrays)
+    def savez_then_signal(tmp, blob):
+        real(tmp, blob)
         signal.raise_signal(signal.SIGINT)  # a real Ctrl-C, between arrays.npz and model.json
 
-    monkeypatch.setattr(E, "_savez", savez_then_signal)
+    monkeypatch.setattr(E, "_write_blob", savez_then_signal)
     out = tmp_path / "m"
     code, _, err = run(capsys, "fit", "capstan-simple", "--data", str(recording), "--out", str(out))
     _assert_interrupted(code, err, "writing the model", "wrote only", "arrays.npz", "model.json")
