@@ -6,16 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from tendon_id.cli import main
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from cli_helpers import run
 from test_data import BAD, make_recording  # noqa: E402  (the bad inputs of docs/guide/data.rst)
-
-
-def run(capsys, *argv):
-    code = main(list(argv))
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_simulate_twice_gives_identical_bytes_and_info_reports_it(tmp_path, capsys):

@@ -3,14 +3,9 @@
 import json
 
 import pytest
+from cli_helpers import run
 
 from tendon_id.cli import main
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture(scope="module")

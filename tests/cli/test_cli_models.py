@@ -3,14 +3,7 @@
 import json
 
 import pytest
-
-from tendon_id.cli import main
-
-
-def run(capsys, *argv):
-    code = main(list(argv))
-    out = capsys.readouterr()
-    return code, out.out, out.err
+from cli_helpers import run
 
 
 def test_fit_then_evaluate_json(recording, tmp_path, capsys):

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import pytest
+from cli_helpers import run
 
 import tendon_id
 from tendon_id import progress
@@ -27,12 +28,6 @@ COMMANDS = [
     "demo",
 ]
 JSON_COMMANDS = COMMANDS  # every command takes --json PATH|-
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture(scope="module")

@@ -12,27 +12,18 @@ import numpy as np
 import pytest
 
 from tendon_id.atomic import check_writable, hold_interrupt, write_json_atomic
-from tendon_id.cli import main
 from tendon_id.data import Recording
 from tendon_id.errors import ConfigError
 from tendon_id.progress import progress_bar
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "learners"))
+from cli_helpers import files as _files
+from cli_helpers import run
 from test_nonfinite import poison_stage2  # noqa: E402  (the NaN injected in PG-CHTC's stage 2)
-
-
-def run(capsys, *argv):
-    code = main(list(argv))
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def _never(*_args, **_kwargs):
     raise AssertionError("the long work started before the output was checked")
-
-
-def _files(folder):
-    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
 
 
 @pytest.fixture

@@ -8,20 +8,11 @@ import time
 
 import numpy as np
 import pytest
+from cli_helpers import files as _files
+from cli_helpers import run
 
-from tendon_id.cli import main
 from tendon_id.data import Recording
 from tendon_id.zoo import load, make
-
-
-def run(capsys, *argv):
-    code = main(list(argv))
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-def _files(folder):
-    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
 
 
 def test_a_sigterm_between_the_models_files_is_held_until_both_are_whole(recording, tmp_path, monkeypatch, capsys):
