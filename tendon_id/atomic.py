@@ -15,13 +15,13 @@ import shutil
 import signal
 import tempfile
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from tendon_id.errors import ConfigError
+from tendon_id.errors import ConfigError, OutputError, TendonIdError
 
 try:  # POSIX; write_group only holds the interrupt without it
     import fcntl
@@ -42,20 +42,45 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], None]) -> Path:
     new file gets the ordinary permissions (``0o666`` less the umask), not the
     owner-only mode of :func:`tempfile.mkstemp`.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    return atomic_write_all([(path, write)])[0]
+
+
+def atomic_write_all(writes: Sequence[tuple[str | os.PathLike, Callable[[str], None]]]) -> list[Path]:
+    """Write every file to a temporary file beside it, and only then rename them all into place.
+
+    Either every file is new, or (an error in any write: a full disk, a Ctrl-C) none was replaced
+    and no temporary file is left: a CSV and its sidecar, or a model's two files, never mix two
+    writes. The renames themselves take no space and do not fail on a full disk.
+
+    Raises
+    ------
+    OutputError
+        For an ``OSError`` of the file system, naming the file that could not be written.
+    """
+    temps: list[tuple[str, Path]] = []
+    current = None
     try:
-        write(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        for target, write in writes:
+            current = Path(target)
+            current.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f".{current.name}.", suffix=".tmp", dir=current.parent)
+            os.close(fd)
+            temps.append((tmp, current))
+            write(tmp)
+            os.chmod(tmp, 0o666 & ~_umask())
+        for tmp, target in temps:
+            current = target
+            os.replace(tmp, target)
+    except BaseException as exc:
+        for tmp, _ in temps:
+            Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError) and not isinstance(exc, TendonIdError):  # a full disk, a read-only folder
+            raise OutputError(f"{current}: cannot be written ({exc.strerror or exc}); nothing was replaced") from exc
         raise
+    paths = [target for _, target in temps]
     if _journal is not None:
-        _journal.append(path)
-    return path
+        _journal.extend(paths)
+    return paths
 
 
 def write_folder_atomic(path: str | os.PathLike, files: dict[str, bytes]) -> Path:
@@ -66,8 +91,11 @@ def write_folder_atomic(path: str | os.PathLike, files: dict[str, bytes]) -> Pat
     plain file names; the files get the ordinary permissions, as :func:`atomic_write` gives.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot be written ({exc.strerror or exc})") from exc
     old = None
     try:
         for name, content in files.items():
@@ -80,10 +108,12 @@ def write_folder_atomic(path: str | os.PathLike, files: dict[str, bytes]) -> Pat
             old = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".old", dir=path.parent))
             os.replace(path, old / path.name)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         if old is not None and (old / path.name).exists() and not path.exists():
             os.replace(old / path.name, path)  # put the old folder back
+        if isinstance(exc, OSError) and not isinstance(exc, TendonIdError):
+            raise OutputError(f"{path}: cannot be written ({exc.strerror or exc}); nothing was replaced") from exc
         raise
     finally:
         if old is not None:
@@ -108,7 +138,9 @@ def _jsonable(o):
 
 
 def _finite(o):
-    """Non-finite floats as null, recursively."""
+    """Non-finite floats as null, recursively (numpy arrays and scalars included)."""
+    if isinstance(o, np.ndarray):
+        o = o.tolist()
     if isinstance(o, dict):
         return {k: _finite(v) for k, v in o.items()}
     if isinstance(o, (list, tuple)):
@@ -118,20 +150,18 @@ def _finite(o):
     return o
 
 
-def json_text(obj, *, strict: bool = False) -> str:
-    """``obj`` as indented JSON: numpy values converted; with ``strict`` non-finite numbers as ``null``.
+def json_text(obj, *, sort_keys: bool = False) -> str:
+    """``obj`` as indented standard JSON: numpy values converted, a non-finite number as ``null``.
 
-    Without ``strict`` they are written as Python's ``NaN``/``Infinity`` tokens, which strict
-    JSON parsers reject.
+    Python's ``NaN``/``Infinity`` tokens are not JSON (RFC 8259, section 6): ``JSON.parse`` and
+    most parsers reject them, so an undefined value is written as ``null``, always.
     """
-    if strict:
-        obj = _finite(obj)
-    return json.dumps(obj, indent=2, default=_jsonable, allow_nan=not strict)
+    return json.dumps(_finite(obj), indent=2, default=_jsonable, allow_nan=False, sort_keys=sort_keys)
 
 
-def write_json_atomic(path: str | os.PathLike, obj, *, strict: bool = False) -> Path:
+def write_json_atomic(path: str | os.PathLike, obj) -> Path:
     """Write ``obj`` as indented JSON to ``path`` atomically (see :func:`json_text`)."""
-    return write_text_atomic(path, json_text(obj, strict=strict) + "\n")
+    return write_text_atomic(path, json_text(obj) + "\n")
 
 
 # ---- checks before long work, and what was written ------------------------------------------

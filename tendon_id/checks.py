@@ -10,12 +10,25 @@ words, not the parameter's meaning.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import math
+from collections.abc import Iterable, Mapping
 from typing import Any
 
-from tendon_id.errors import ConfigError
+import numpy as np
 
-__all__ = ["check_choice", "check_choices", "check_count", "check_keys", "check_positive", "one_of"]
+from tendon_id.errors import ConfigError, NonFiniteResult
+
+__all__ = [
+    "check_choice",
+    "check_choices",
+    "check_count",
+    "check_finite_result",
+    "check_jobs",
+    "check_keys",
+    "check_positive",
+    "non_finite_paths",
+    "one_of",
+]
 
 
 def one_of(known: Iterable[str]) -> str:
@@ -90,6 +103,13 @@ def check_count(param: str, value: Any, minimum: int = 1) -> int:
     return int(value)
 
 
+def check_jobs(param: str, value: Any) -> int:
+    """``value`` as joblib's ``n_jobs``: a whole number of workers, or -1 for every core (-2 all but one, ...)."""
+    if isinstance(value, bool) or not hasattr(value, "__index__") or int(value) == 0:
+        raise ConfigError(f"must be a number of workers (1, 2, ...) or -1 for every core, got {value!r}", param=param)
+    return int(value)
+
+
 def check_positive(param: str, value: Any, unit: str = "", *, allow_zero: bool = False) -> float:
     """``value`` as a float if it is finite and positive (or zero, with ``allow_zero``); else a ConfigError."""
     try:
@@ -101,3 +121,49 @@ def check_positive(param: str, value: Any, unit: str = "", *, allow_zero: bool =
         kind = "non-negative" if allow_zero else "positive"
         raise ConfigError(f"must be a {kind} number{' in ' + unit if unit else ''}, got {value!r}", param=param)
     return v
+
+
+def non_finite_paths(obj: Any, prefix: str = "", undefined: Iterable[str] = ()) -> list[str]:
+    """Where ``obj`` (nested dicts, lists, arrays and numbers) holds NaN or inf, as ``a.b[2]`` paths.
+
+    Entries whose key is in ``undefined`` may be NaN (a value that is undefined, written as null).
+    """
+    undefined = tuple(undefined)
+    if isinstance(obj, Mapping):
+        return [
+            p
+            for k, v in obj.items()
+            if k not in undefined
+            for p in non_finite_paths(v, f"{prefix}.{k}" if prefix else str(k), undefined)
+        ]
+    if isinstance(obj, np.ndarray) and obj.dtype.kind in "fc":
+        bad = np.argwhere(~np.isfinite(obj))
+        return [f"{prefix}[{', '.join(map(str, bad[0]))}]" if obj.ndim else prefix] if bad.size else []
+    if isinstance(obj, (list, tuple)):
+        return [p for i, v in enumerate(obj) for p in non_finite_paths(v, f"{prefix}[{i}]", undefined)]
+    if isinstance(obj, (float, np.floating)) and not math.isfinite(obj):
+        return [prefix]
+    return []
+
+
+def check_finite_result(obj: Any, *, what: str, inputs: str, undefined: Iterable[str] = ()) -> None:
+    """Raise :class:`~tendon_id.errors.NonFiniteResult` where ``obj`` holds NaN or inf; a result never does.
+
+    Parameters
+    ----------
+    obj : dict, list, array or number
+        The result (fitted parameters, metrics).
+    what : str
+        What computed it (``"calibrating passage-capstan"``).
+    inputs : str
+        The inputs it came from (the files), named in the message.
+    undefined : iterable of str
+        Keys whose value may be NaN: undefined, not wrong (R^2 of a constant reference).
+    """
+    bad = non_finite_paths(obj, undefined=undefined)
+    if bad:
+        more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
+        raise NonFiniteResult(
+            f"{what} on {inputs} gave a non-finite {bad[0]}{more}: the data's values or the settings are "
+            "outside what the model can compute with; no result was written"
+        )

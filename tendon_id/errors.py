@@ -71,6 +71,17 @@ class ConfigError(TendonIdError, ValueError):
         return str(self)
 
 
+class OutputError(TendonIdError, OSError):
+    """A file could not be written (a full disk, no permission): the message names it; no old file was replaced."""
+
+
+class NonFiniteResult(TendonIdError, ArithmeticError):
+    """A fit, calibration or metric came out NaN or infinite: never a result (the CLI exits with code 2).
+
+    The message names the value and the input it was computed from.
+    """
+
+
 class DefaultedGeometryWarning(UserWarning):
     """The data did not describe part of the robot, and the paper robot's value stood in for it.
 

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
 from joblib import Parallel
 
+from tendon_id.checks import check_jobs
 from tendon_id.errors import ConfigError
 
 
@@ -24,9 +24,8 @@ def job_runner(backend: str | None, n_jobs: int) -> Parallel:
     ConfigError
         For an ``n_jobs`` that is not a non-zero integer, or an unknown backend, before any job runs.
     """
-    if isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0:
-        raise ConfigError(f"n_jobs must be a non-zero integer, got {n_jobs!r}")
+    n_jobs = check_jobs("n_jobs", n_jobs)
     try:
-        return Parallel(n_jobs=int(n_jobs), return_as="generator", **({"backend": backend} if backend else {}))
+        return Parallel(n_jobs=n_jobs, return_as="generator", **({"backend": backend} if backend else {}))
     except ValueError as exc:  # an unknown or unregistered backend name
         raise ConfigError(f"joblib backend {backend!r}: {exc}") from None

@@ -10,7 +10,7 @@ import typer
 
 from tendon_id.atomic import check_writable, hold_interrupt
 from tendon_id.cli.app import app
-from tendon_id.cli.common import JsonOutput, json_option, mapping_option, read_all, training_warnings
+from tendon_id.cli.common import JsonOutput, check_held_out, json_option, mapping_option, read_all, training_warnings
 from tendon_id.errors import ConfigError
 from tendon_id.progress import stage
 
@@ -27,7 +27,7 @@ def report_written(write_report, result, out: Path, js: JsonOutput) -> str:
     """Write the page and the JSON (``result.to_dict()``, standard JSON) together; ``"wrote ..."``."""
     with stage("writing the report"), hold_interrupt():  # the page and its JSON together
         path = write_report(result, out)
-        written = js.emit(result.to_dict(), strict=True)
+        written = js.emit(result.to_dict())
     return f"wrote {path}" + (f" and {written}" if written else "")
 
 
@@ -48,7 +48,7 @@ def identifiability(
         False, "--learned", metavar="", help="Also train tied and per-guide PG-CHTC (fast preset; minutes)."
     ),
     seeds: int = typer.Option(3, "--seeds", metavar="N", help="Seeds of the learned comparison."),
-    seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the samplers and the frame subset."),
+    seed: int = typer.Option(0, "--seed", metavar="N", min=0, help="Seed of the samplers and the frame subset."),
     mapping: Optional[str] = mapping_option(),
 ) -> None:
     """What terminal-only data determines: tied against per-guide laws, bands, and what to measure next."""
@@ -105,18 +105,21 @@ def diagnose(
     out: Path = typer.Option(Path("diagnosis.html"), "--out", metavar="FILE", help="Self-contained HTML report."),
     json_out: Optional[str] = json_option("the result"),
     jobs: int = typer.Option(1, "--jobs", metavar="N", help="Parallel refits (joblib; -1: every core)."),
-    seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the bootstrap."),
+    seed: int = typer.Option(0, "--seed", metavar="N", min=0, help="Seed of the bootstrap."),
 ) -> None:
     """Where the gap of a model with effect blocks lies, which unmodelled effect causes it, and how far it shrinks."""
     from tendon_id import zoo
+    from tendon_id.checks import check_jobs
     from tendon_id.diagnosis import DiagnosisSettings, candidate_names, check_base
     from tendon_id.diagnosis import diagnose as run
     from tendon_id.report.diagnosis import write_report
 
+    check_jobs("jobs", jobs)
     js = check_html(out, json_out)
     model = zoo.load(base) if Path(base).is_dir() else zoo.make(base)
     check_base(model)
     names = candidate_names(candidates, model.family.blocks)
+    check_held_out(data or [], test)
     train = read_all(data, mapping)
     held = read_all(test, mapping, param="test") if test else None
     with js.lines():

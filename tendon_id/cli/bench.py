@@ -27,7 +27,9 @@ def benchmark(
     recipe: Optional[str] = typer.Option(
         None, "--recipe", metavar="NAME", help="Recipe (default: the benchmark's own)."
     ),
-    seed: Optional[int] = typer.Option(None, "--seed", metavar="N", help="Seed of the first data split (default 0)."),
+    seed: Optional[int] = typer.Option(
+        None, "--seed", metavar="N", min=0, help="Seed of the first data split (default 0)."
+    ),
     repeats: Optional[int] = typer.Option(
         None,
         "--repeats",
@@ -78,7 +80,7 @@ def benchmark(
         typer.echo(format_table(result))
         with stage("writing the results"), hold_interrupt():
             # standard JSON, as every command's: an undefined number (NaN, infinity) is null
-            written = js.emit(result, strict=True)
+            written = js.emit(result)
             if written:
                 typer.echo(f"wrote {written}")
             if out is not None:

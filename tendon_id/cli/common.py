@@ -71,14 +71,14 @@ class JsonOutput:
         with redirect_stdout(sys.stderr):
             yield
 
-    def emit(self, obj, *, strict: bool = True) -> Path | None:
+    def emit(self, obj) -> Path | None:
         """Print or write ``obj`` (see :func:`tendon_id.atomic.json_text`); the path written, if any."""
         if self.to_stdout:
-            self._stdout.write(json_text(obj, strict=strict) + "\n")
+            self._stdout.write(json_text(obj) + "\n")
             self._stdout.flush()
             return None
         if self.path is not None:
-            return write_json_atomic(self.path, obj, strict=strict)
+            return write_json_atomic(self.path, obj)
         return None
 
 
@@ -104,6 +104,34 @@ def read_all(paths: list[Path] | None, mapping: str | None = None, param: str = 
     if not paths:
         raise ConfigError("give at least one recording", param=param)
     return read_files(paths, load_mapping(mapping_path(mapping)) if mapping else None)
+
+
+#: Fewer frames than this and a fit is warned about: a law, a network or a play operator needs
+#: a change between frames to be determined at all (the simulator's minimum is 2 too).
+MIN_FIT_FRAMES = 2
+
+
+def check_fit_data(recs: list, paths: list[Path]) -> None:
+    """Warn, on standard error, of a fit on fewer than :data:`MIN_FIT_FRAMES` frames, naming the files.
+
+    A warning, not an error: the library fits what it is given (its result is the start the data
+    barely moved), and the command line agrees with it.
+    """
+    frames = sum(r.n_frames for r in recs)
+    if frames < MIN_FIT_FRAMES:
+        names = ", ".join(map(str, paths))
+        typer.echo(
+            f"warning: {names}: fitting on {frames} frame(s); nothing is determined by so few, and the fitted "
+            "values are little more than the fit's starting point",
+            err=True,
+        )
+
+
+def check_held_out(train: list[Path], test: list[Path] | None) -> None:
+    """Refuse a held-out file that is also a training file: its error would not be held out."""
+    both = {Path(p).resolve() for p in train} & {Path(p).resolve() for p in test or []}
+    if both:
+        raise ConfigError(f"{sorted(both)[0]} is both a training and a held-out file", param="test")
 
 
 @contextmanager

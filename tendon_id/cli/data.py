@@ -30,7 +30,11 @@ def simulate(
         help=f"Comma-separated effects to switch on instead of the recipe's ({', '.join(EFFECT_NAMES)}), or 'none'.",
     ),
     seed: Optional[int] = typer.Option(
-        None, "--seed", metavar="N", help="Random seed (default: the recipe's). The same seed gives the same bytes."
+        None,
+        "--seed",
+        metavar="N",
+        min=0,
+        help="Random seed (default: the recipe's). The same seed gives the same bytes.",
     ),
     frames: Optional[int] = typer.Option(None, "--frames", metavar="N", help="Total frames (default: the recipe's)."),
     out: Path = typer.Option(
@@ -52,7 +56,7 @@ def simulate(
         typer.echo(
             f"wrote {path}: {rec.n_frames} frames, {len(rec.trajectories)} trajectories, {rec.n_modules} modules"
         )
-        written = js.emit({"path": str(path), **rec.describe()}, strict=True)
+        written = js.emit({"path": str(path), **rec.describe()})
         if written:
             typer.echo(f"wrote {written}")
 
@@ -80,7 +84,7 @@ def convert(
         typer.echo(
             f"wrote {path}: {rec.n_frames} frames, {len(rec.trajectories)} trajectories from {len(recs)} file(s)"
         )
-        written = js.emit({"path": str(path), **rec.describe()}, strict=True)
+        written = js.emit({"path": str(path), **rec.describe()})
         if written:
             typer.echo(f"wrote {written}")
 

@@ -58,6 +58,6 @@ def export_command(
             folder = export_model(m, format, out, prefix)
         files = sorted(p.name for p in folder.iterdir())
         typer.echo(f"exported {m.name} ({format}) to {folder}: {', '.join(files)}")
-        written = js.emit({"model": m.name, "format": format, "out": str(folder), "files": files}, strict=True)
+        written = js.emit({"model": m.name, "format": format, "out": str(folder), "files": files})
         if written:
             typer.echo(f"wrote {written}")

@@ -10,10 +10,11 @@ from typing import Optional
 import typer
 
 from tendon_id.atomic import check_writable, hold_interrupt
-from tendon_id.checks import one_of
+from tendon_id.checks import check_finite_result, one_of
 from tendon_id.cli.app import app
 from tendon_id.cli.common import (
     JsonOutput,
+    check_fit_data,
     echo_guard,
     json_option,
     mapping_option,
@@ -46,19 +47,22 @@ def fit(
     check_writable(out, "--out", folder=True)
     js = JsonOutput(json_out)
     m = zoo.make(model, **parse_sets(set_))
+    m.check_settings()  # before the data is read
     recs = read_all(data, mapping)
+    check_fit_data(recs, data)
     with js.lines():
         t0 = time.perf_counter()
         with stage(f"fit {model}"), quiet_guard(), training_warnings():  # the guard is printed below, plainly
             m.fit(recs)
         seconds = time.perf_counter() - t0
+        m.check_finite_fit(", ".join(map(str, data)))  # a diverged fit is an error naming its data
         with stage("writing the model"), hold_interrupt():  # model.json and arrays.npz: both or neither new
             m.save(out)
         frames = sum(r.n_frames for r in recs)
         typer.echo(f"fitted {model} on {frames} frames; saved to {out}")
         echo_guard(m)
         summary = {"model": model, "frames": frames, "out": str(out), "seconds": seconds}
-        written = js.emit({**summary, "guard": getattr(m, "guard_", None)}, strict=True)
+        written = js.emit({**summary, "guard": getattr(m, "guard_", None)})
         if written:
             typer.echo(f"wrote {written}")
 
@@ -77,6 +81,8 @@ def evaluate(
     m = zoo.load(model)
     rec = read_all([data], mapping)[0]
     score = m.score(rec)
+    # R^2 is undefined (null) for a constant reference; any other NaN is an error naming the data.
+    check_finite_result(score, what=f"evaluating {m.name}", inputs=str(data), undefined=("r2",))
     with js.lines():
         first, *rest = m.family.score_lines(m, score, rec, str(data))
         typer.echo(first)
@@ -84,7 +90,7 @@ def evaluate(
         for line in rest:
             typer.echo(line)
         # standard JSON: an undefined R^2 (a constant reference) is null
-        written = js.emit({"model": m.name, "frames": rec.n_frames, **score}, strict=True)
+        written = js.emit({"model": m.name, "frames": rec.n_frames, **score})
         if written:
             typer.echo(f"wrote {written}")
 
@@ -115,7 +121,7 @@ def calibrate(
     out: Path = typer.Option(
         ..., "--out", metavar="DIR", help="Output folder: calibration.json (+ posterior.json, corner.png)."
     ),
-    seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the multi-start and of the sampler."),
+    seed: int = typer.Option(0, "--seed", metavar="N", min=0, help="Seed of the multi-start and of the sampler."),
     json_out: Optional[str] = json_option("calibration.json's content and the files written"),
 ) -> None:
     """Constrained calibration with nlopt (a snake's law, a passage's law and blocks), and its emcee posterior."""
@@ -130,6 +136,7 @@ def calibrate(
         settings["blocks"] = [b.strip() for b in blocks.split(",") if b.strip()]
     calibration_model(model, settings, seed)  # a bad model, setting or block fails before the data is read
     recs = read_all(data, mapping)
+    check_fit_data(recs, data)
     with js.lines():
         with stage(f"calibrate {model}" + (" and its posterior" if posterior else "")):
             written = run_calibration(
@@ -138,6 +145,6 @@ def calibrate(
         for path in written:
             typer.echo(f"wrote {path}")
         calibration = json.loads((Path(out) / "calibration.json").read_text())
-        summary = js.emit({"files": [str(p) for p in written], "calibration": calibration}, strict=True)
+        summary = js.emit({"files": [str(p) for p in written], "calibration": calibration})
         if summary:
             typer.echo(f"wrote {summary}")

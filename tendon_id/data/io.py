@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import json
+import stat
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -20,9 +21,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tendon_id.atomic import atomic_write, write_group
+from tendon_id.atomic import atomic_write, atomic_write_all, write_group
 from tendon_id.data.columns import PANDAS_COW
-from tendon_id.errors import RecordingError
+from tendon_id.errors import OutputError, RecordingError
 
 #: Key of the Parquet key-value schema metadata that holds the recording metadata (JSON).
 META_KEY = b"tendon_id"
@@ -105,6 +106,27 @@ def sidecar(path: Path) -> Path:
     return path.with_suffix(".json")
 
 
+def check_regular_file(path: Path) -> None:
+    """Raise RecordingError unless ``path`` is (or links to) a regular file.
+
+    A FIFO would block the read for ever and a device such as ``/dev/zero`` never ends; neither
+    is a recording, so neither is opened.
+    """
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise RecordingError("no such file", file=str(path)) from None
+    except OSError as exc:
+        raise RecordingError(f"cannot be read ({first_line(exc)})", file=str(path)) from None
+    if stat.S_ISDIR(mode):
+        raise RecordingError("is a folder, not a file", file=str(path))
+    if not stat.S_ISREG(mode):
+        kind = (
+            "a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "special"
+        )
+        raise RecordingError(f"is {kind}, not a regular file", file=str(path))
+
+
 def check_suffix(path: Path) -> str:
     """Return the lower-case suffix of ``path``; raise RecordingError unless Parquet or CSV."""
     suffix = path.suffix.lower()
@@ -135,10 +157,7 @@ def read_frame(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
         metadata.
     """
     suffix = check_suffix(path)
-    if not path.exists():
-        raise RecordingError("no such file", file=str(path))
-    if path.is_dir():
-        raise RecordingError("is a folder, not a file", file=str(path))
+    check_regular_file(path)
     if suffix in SUFFIXES_PARQUET:
         return read_parquet(path)
     return read_csv(path)
@@ -187,6 +206,7 @@ def read_csv(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
     side = sidecar(path)
     meta = None
     if side.exists():
+        check_regular_file(side)
         try:
             meta = json.loads(side.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
@@ -276,22 +296,29 @@ def write_frame(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> Pat
             write_parquet(frame, meta, path)
         else:
             write_csv_pair(frame, meta, path)
+    except OutputError:
+        raise  # names the file already
     except OSError as exc:
         raise RecordingError(f"cannot write ({first_line(exc)})", file=str(path)) from exc
     return path
 
 
 def write_csv_pair(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> None:
-    """Write a CSV file and its sidecar as one unit, each atomically, the sidecar first.
+    """Write a CSV file and its sidecar as one unit: both to temporary files, then both renamed into place.
 
     :func:`~tendon_id.atomic.write_group` makes concurrent writers to one folder take turns (the
     last writer's pair is what is left, never one's data with the other's metadata) and holds a
-    Ctrl-C or SIGTERM until both files are in place.
+    Ctrl-C or SIGTERM until both files are in place; :func:`~tendon_id.atomic.atomic_write_all`
+    replaces neither file when either write fails (a full disk).
     """
     text = meta_json(meta, indent=2) + "\n"
     with write_group(path.parent):
-        atomic_write(sidecar(path), lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
-        atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, lineterminator="\n", encoding="utf-8"))
+        atomic_write_all(
+            [
+                (sidecar(path), lambda tmp: Path(tmp).write_text(text, encoding="utf-8")),
+                (path, lambda tmp: frame.to_csv(tmp, index=False, lineterminator="\n", encoding="utf-8")),
+            ]
+        )
 
 
 def write_parquet(frame: pd.DataFrame, meta: Mapping[str, Any], path: Path) -> None:

@@ -34,6 +34,7 @@ with ``quantity`` and ``[geometry]``; for a snake the columns of
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from dataclasses import dataclass, field
@@ -45,7 +46,7 @@ import pandas as pd
 
 from tendon_id.checks import check_choice, check_keys
 from tendon_id.data import rules
-from tendon_id.data.io import first_line, read_frame
+from tendon_id.data.io import check_regular_file, first_line, read_frame
 from tendon_id.data.patterns import expand_columns
 from tendon_id.data.rosbag import is_bag, read_bag
 from tendon_id.data.units import DIMENSIONS, si_factor
@@ -147,9 +148,13 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
     """
     src = str(path)
     try:
+        if Path(path).exists():
+            check_regular_file(Path(path))  # a FIFO or a device would never end the read
         doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ConfigError(f"{src}: no such mapping file") from None
+    except RecordingError as exc:
+        raise ConfigError(f"{src}: {exc.reason}") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"{src}: not a readable TOML mapping ({first_line(exc)})") from None
     kind = check_choice(f"{src}: kind", doc.get("kind", DEFAULT_MAPPED), family_names(), what="kind")
@@ -180,8 +185,12 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
             raise ConfigError(f"{where}: column must be a name or a number from 1, got {column!r}")
         unit = spec.get("unit", DIMENSIONS[sk])
         scale, sign = spec.get("scale", 1.0), spec.get("sign", 1)
-        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not np.isfinite(scale) or scale == 0:
-            raise ConfigError(f"{where}: scale must be a finite, non-zero number, got {scale!r}")
+        try:  # TOML integers have any number of digits: a 400-digit one is no float
+            ok = not isinstance(scale, bool) and isinstance(scale, (int, float)) and math.isfinite(float(scale))
+        except OverflowError:
+            ok = False
+        if not ok or scale == 0:
+            raise ConfigError(f"{where}: scale must be a finite, non-zero number, got {str(scale)[:40]!r}")
         if sign not in (1, -1) or isinstance(sign, bool):
             raise ConfigError(f"{where}: sign must be 1 or -1, got {sign!r}")
         factor = sign * float(scale) * si_factor(unit, sk, where=where)
@@ -199,13 +208,25 @@ def load_mapping(path: str | os.PathLike) -> DataMapping:
         source=src,
         kind=kind,
         columns=tuple(columns),
-        comment=f.get("comment"),
-        header=bool(f.get("header", True)),
-        delimiter=str(f.get("delimiter", ",")),
-        trajectory=f.get("trajectory", "file"),
+        **_file_options(f, src),
         options=options,
         clock=_clock(f, src),
     )
+
+
+def _file_options(f: dict, where: str) -> dict:
+    """``[file]``'s comment, header, delimiter and trajectory, each checked for its type (TOML has no casts)."""
+    comment, header, delimiter = f.get("comment"), f.get("header", True), f.get("delimiter", ",")
+    if comment is not None and not (isinstance(comment, str) and len(comment) == 1):
+        raise ConfigError(f"{where}: [file] comment must be one character such as '#', got {comment!r}")
+    if not isinstance(header, bool):
+        raise ConfigError(f"{where}: [file] header must be true or false (no quotes), got {header!r}")
+    if not (isinstance(delimiter, str) and len(delimiter) == 1 and delimiter not in '"\r\n'):
+        raise ConfigError(f"{where}: [file] delimiter must be one character such as ',', got {delimiter!r}")
+    trajectory = f.get("trajectory", "file")
+    if isinstance(trajectory, bool) or not isinstance(trajectory, (str, int)):
+        raise ConfigError(f"{where}: [file] trajectory must be 'file' or a column's name or number, got {trajectory!r}")
+    return {"comment": comment, "header": header, "delimiter": delimiter, "trajectory": trajectory}
 
 
 def _topic_field(spec: dict, where: str) -> tuple[str | None, str | None]:
@@ -231,8 +252,7 @@ def _clock(f: dict, where: str) -> str | None:
 
 def _read_raw(path: Path, m: DataMapping) -> pd.DataFrame:
     src = str(path)
-    if not path.is_file():
-        raise RecordingError("no such file", file=src)
+    check_regular_file(path)
     try:
         if path.suffix.lower() in (".parquet", ".pq"):
             frame = pd.read_parquet(path)
@@ -298,6 +318,7 @@ def read_mapped(path: str | os.PathLike, mapping: DataMapping, *, trajectory: st
         rules.check_numeric(raw.rename(columns={col: label}), [label], source=src)
         values = c.factor * raw[col].to_numpy(dtype=np.float64, na_value=np.nan)
         rules.check_finite({label: values}, source=src)
+        rules.check_representable({label: values}, source=src)
         if c.kind == "tension":
             bad = np.flatnonzero(values <= 0)
             if bad.size:

@@ -112,6 +112,14 @@ def normalise_meta(meta: Mapping[str, Any] | None, source: str | None) -> dict[s
             )
     out["robot"] = None if robot is None else copy.deepcopy(dict(robot))
 
+    sensors = raw.get("sensors")
+    if sensors is not None and not isinstance(sensors, Mapping):
+        raise bad("sensors", "a mapping or null")
+    for key in ("noise_n", "range_n"):  # load-cell noise and range [N]: the analyses weight data by them
+        v = (sensors or {}).get(key)
+        if v is not None and not (_numbers(v) and not isinstance(v, (list, tuple)) and 0 <= v < math.inf):
+            raise RecordingError(f"metadata 'sensors.{key}' must be a non-negative number of N, got {v!r}", file=source)
+
     effects = raw.get("effects")
     if effects is None:
         effects = []
@@ -170,7 +178,10 @@ def normalise_frame(frame: pd.DataFrame, meta: Mapping[str, Any], source: str | 
         raise RecordingError("duplicate column", file=source, column=str(dup[0]))
     frame = frame.reset_index(drop=True)
 
-    n = meta.get("n_modules") or infer_n_modules(list(frame.columns))[0]
+    # The columns bound N: metadata that claims more modules (10**6, a typo) is refused by
+    # validation, and is never used to size anything before (that would cost O(claimed N)).
+    inferred = infer_n_modules(list(frame.columns))[0]
+    n = min(meta["n_modules"], inferred) if meta.get("n_modules") and inferred else inferred
     if n and (meta.get("robot") or {}).get("bending_axes") == 1:
         # A hinge has no second axis: a planar robot's log may leave theta_k_y out, and it is zero.
         missing = {f"theta_{k}_y": 0.0 for k in range(1, n + 1) if f"theta_{k}_y" not in frame.columns}

@@ -32,6 +32,7 @@ from tendon_id.checks import check_choice
 from tendon_id.data import rules
 from tendon_id.data.columns import float_column, infer_sample_rate
 from tendon_id.data.frame import FrameRecording
+from tendon_id.data.validation import check_tension_magnitude
 from tendon_id.errors import ConfigError, RecordingError
 from tendon_id.family.registry import family_named
 
@@ -40,6 +41,11 @@ __all__ = ["PASSAGE_KIND", "QUANTITIES", "PASSAGE_COLUMNS", "OPTIONAL_COLUMNS", 
 PASSAGE_KIND = "passage"
 #: Quantity of the input and output signals, and its SI unit.
 QUANTITIES = {"torque": "N*m", "tension": "N"}
+#: Largest wrap angle a passage may have [rad]: a hundred turns. A cable bench's or an instrument's
+#: passage wraps its pulleys by a few rad, and a snake's tendon by at most pi per joint; a larger
+#: value is a unit error (degrees or encoder counts read as rad), and it drives the capstan
+#: exponent's range (mu up to 3 / wrap_angle, :mod:`tendon_id.zoo.passage.fitting`) towards zero.
+MAX_WRAP_ANGLE = 200.0 * np.pi
 #: Columns every passage recording has.
 PASSAGE_COLUMNS = ("trajectory", "t", "input", "output")
 #: Columns it may have.
@@ -55,8 +61,12 @@ def _meta(meta: Mapping[str, Any] | None, source: str | None) -> dict[str, Any]:
     if q not in QUANTITIES:
         raise RecordingError(f"metadata quantity {q!r} is not one of {', '.join(QUANTITIES)}", file=source)
     w = out.setdefault("wrap_angle", None)
-    if w is not None and not (isinstance(w, (int, float)) and np.isfinite(w) and w > 0):
-        raise RecordingError(f"metadata wrap_angle must be a positive number [rad] or null, got {w!r}", file=source)
+    if w is not None and not (isinstance(w, (int, float)) and not isinstance(w, bool) and 0 < w <= MAX_WRAP_ANGLE):
+        raise RecordingError(
+            f"metadata wrap_angle must be a number in (0, {MAX_WRAP_ANGLE:.0f}] rad (a hundred turns) or null, "
+            f"got {w!r}",
+            file=source,
+        )
     out.setdefault("sample_rate_hz", None)
     return out
 
@@ -107,12 +117,17 @@ class PassageRecording(FrameRecording):
         rules.check_contiguous_trajectories(ids, source=src)
         arrays = {c: float_column(f, c) for c in numeric}
         rules.check_finite(arrays, source=src)
+        rules.check_representable(arrays, source=src)
         if self.quantity == "tension":
-            rules.check_positive_tensions({c: arrays[c] for c in ("input", "output")}, source=src)
+            tensions = {c: arrays[c] for c in ("input", "output")}
+            rules.check_positive_tensions(tensions, source=src)
+            check_tension_magnitude(tensions, source=src)  # the same plausible range as a snake's tendons
         if "wrap" in arrays:
-            bad = np.flatnonzero(arrays["wrap"] < 0)
+            bad = np.flatnonzero((arrays["wrap"] < 0) | (arrays["wrap"] > MAX_WRAP_ANGLE))
             if bad.size:
-                raise RecordingError("negative wrap angle", file=src, column="wrap", row=int(bad[0]))
+                w = float(arrays["wrap"][bad[0]])
+                why = "negative wrap angle" if w < 0 else f"wrap angle {w:g} rad beyond a hundred turns"
+                raise RecordingError(why, file=src, column="wrap", row=int(bad[0]))
         rules.check_time_increases(arrays["t"], ids, source=src)
 
     # ---- what a model reads ------------------------------------------------------------
@@ -210,8 +225,11 @@ class PassageRecording(FrameRecording):
             wrap = float(wrap)
         else:
             wrap = si_factor(str(wrap), "angle", where=f"{where}: geometry.wrap_angle")
-        if wrap is not None and not wrap > 0:
-            raise ConfigError(f"{where}: geometry.wrap_angle must be positive or 'infer', got {wrap!r}")
+        if wrap is not None and not 0 < wrap <= MAX_WRAP_ANGLE:
+            raise ConfigError(
+                f"{where}: geometry.wrap_angle must be in (0, {MAX_WRAP_ANGLE:.0f}] rad (a hundred turns) or 'infer', "
+                f"got {wrap!r} rad"
+            )
         return {"quantity": quantity, "wrap_angle": wrap}
 
     @classmethod

@@ -24,6 +24,8 @@ __all__ = [
     "check_trajectory_ids",
     "check_contiguous_trajectories",
     "check_finite",
+    "check_representable",
+    "SAFE_MAGNITUDE",
     "check_positive_tensions",
     "check_time_increases",
     "first_hit",
@@ -134,6 +136,38 @@ def check_finite(arrays: Mapping[str, np.ndarray], *, source: str | None = None)
         c, row = hit
         v = arrays[c][row]
         raise RecordingError("NaN value" if np.isnan(v) else f"infinite value ({v})", file=source, column=c, row=row)
+
+
+#: Largest magnitude a recording's value may have. Every fit and metric squares its values or
+#: multiplies two of them; beyond 1e150 a square or a sum of 10^7 squares overflows float64's
+#: 1.8e308, and the result is inf or NaN instead of an error (IEEE 754-2008, section 3.2).
+SAFE_MAGNITUDE = 1.0e150
+
+
+def check_representable(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:
+    """Raise for a value whose arithmetic leaves float64's normal range, in any of the finite float64 ``arrays``.
+
+    A magnitude above :data:`SAFE_MAGNITUDE` overflows once squared; a subnormal one (non-zero,
+    below 2.2e-308) has lost its precision already and underflows to zero once squared. Either
+    would turn a fit or a metric into NaN; here it is one line naming the file, column and row.
+    Run after :func:`check_finite`.
+    """
+    tiny = np.finfo(np.float64).tiny
+
+    def bad(a):
+        m = np.abs(a)
+        return (m > SAFE_MAGNITUDE) | ((m < tiny) & (m > 0))
+
+    hit = first_hit(arrays, bad)
+    if hit:
+        c, row = hit
+        v = float(arrays[c][row])
+        why = (
+            f"beyond +-{SAFE_MAGNITUDE:g}, where its square overflows float64"
+            if abs(v) > SAFE_MAGNITUDE
+            else "subnormal (below 2.2e-308), where float64 has lost its precision"
+        )
+        raise RecordingError(f"value {v:g} is {why}; check the unit and scale", file=source, column=c, row=row)
 
 
 def check_positive_tensions(arrays: Mapping[str, np.ndarray], *, source: str | None = None) -> None:

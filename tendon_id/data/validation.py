@@ -22,6 +22,7 @@ from tendon_id.data.rules import (
     check_not_empty,
     check_numeric,
     check_positive_tensions,
+    check_representable,
     check_time_increases,
     check_trajectory_ids,
     first_hit,
@@ -113,7 +114,9 @@ def check_n_modules(columns: Sequence[str], n_modules: int | None, *, source: st
         if inferred > n:
             column = next((c for c in column_names(inferred) if c in cols and (module_index(c) or 0) > n), by)
         else:
-            column = next(c for c in required_columns(n) if c not in cols)
+            # The first column of module inferred + 1 is missing; listing all n modules' would cost
+            # O(n) however large the metadata's n (a 10**30 there is a typo, not a robot).
+            column = next(c for c in required_columns(inferred + 1) if c not in cols)
         raise RecordingError(
             f"n_modules is {n} in the metadata but the columns describe {inferred} modules", file=source, column=column
         )
@@ -280,6 +283,7 @@ def validate(
     # Finite values first, so the sign and range checks below see numbers only.
     arrays = {c: float_column(frame, c) for c in numeric}
     check_finite(arrays, source=source)
+    check_representable(arrays, source=source)
     tensions = {c: a for c, a in arrays.items() if c.startswith("tension_")}
     check_positive_tensions(tensions, source=source)
     check_tension_magnitude(tensions, source=source)

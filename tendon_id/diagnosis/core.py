@@ -30,6 +30,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from tendon_id.checks import check_jobs
 from tendon_id.diagnosis.calibrate import calibrated_margins
 from tendon_id.diagnosis.ladder import climb
 from tendon_id.diagnosis.library import candidate_names
@@ -93,6 +94,7 @@ def diagnose(
         For a base without blocks, unknown candidates, or too few trajectories or files.
     """
     t0 = time.perf_counter()
+    n_jobs = 1 if n_jobs is None else check_jobs("n_jobs", n_jobs)
     family = family_of(base)
     settings = settings or DiagnosisSettings()
     family.check_base(base)

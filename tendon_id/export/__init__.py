@@ -17,12 +17,11 @@ gives the same bytes.
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
 from tendon_id import __version__
-from tendon_id.atomic import write_folder_atomic
+from tendon_id.atomic import json_text, write_folder_atomic
 from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
 from tendon_id.export.c_source import c_files, check_prefix
@@ -114,7 +113,7 @@ def export_files(model, fmt: str, prefix: str = DEFAULT_PREFIX) -> dict[str, byt
             "step": f"int {prefix}_step({prefix}_state *, const double *angles, const double *actuator, "
             "double *tensions): 0, or 1 for a frame it refuses (non-finite, or a tension <= 0)",
         }
-    files[MANIFEST] = (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode()
+    files[MANIFEST] = (json_text(manifest, sort_keys=True) + "\n").encode()
     return files
 
 

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from tendon_id.calibration.posterior import sample_posterior
 from tendon_id.data import Recording
+from tendon_id.errors import ConfigError
 from tendon_id.identifiability.advice import excite_joints, instrument_scores, judge_advice, measure_advice
 from tendon_id.identifiability.band import ambiguity_band, band_frames
 from tendon_id.identifiability.excitation import excitation
@@ -159,7 +160,14 @@ def _noise_of(recs: Sequence[Recording], noise_n: float | None) -> float:
     if noise_n is not None:
         return float(noise_n)
     sensors = recs[0].meta.get("sensors") or {}
-    return float(sensors.get("noise_n", 1.0))
+    noise = float(sensors.get("noise_n", 1.0))  # a finite number >= 0: checked as the file was read
+    if not noise > 0:
+        raise ConfigError(
+            f"{recs[0].source or 'the recording'}: metadata sensors.noise_n is {noise:g} N; the study weights the "
+            "data by the load cells' noise, so give a positive one with --noise-n",
+            param="noise_n",
+        )
+    return noise
 
 
 def analyse(

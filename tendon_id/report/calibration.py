@@ -12,7 +12,7 @@ from pathlib import Path
 
 from tendon_id.atomic import atomic_write, write_json_atomic
 from tendon_id.calibration.posterior import sample_posterior
-from tendon_id.checks import check_choice
+from tendon_id.checks import check_choice, check_finite_result
 from tendon_id.family.registry import family_names, get_family
 from tendon_id.report.html import pyplot
 from tendon_id.zoo.registry import make, model_class
@@ -92,8 +92,12 @@ def run_calibration(
     report = report or (lambda line: None)
     out = Path(out)
     m.fit(recordings)
-    out.mkdir(parents=True, exist_ok=True)  # after the fit: data it refuses leaves no empty folder
+    inputs = ", ".join(sorted({str(r.source) for r in recordings if r.source})) or "its data"
+    m.check_finite_fit(inputs)
     doc = family.calibration_doc(m, recordings)
+    # R^2 is undefined (null) for a constant reference; every other number is a result.
+    check_finite_result(doc, what=f"calibrating {model}", inputs=inputs, undefined=("r2",))
+    out.mkdir(parents=True, exist_ok=True)  # after the fit and its checks: no empty folder is left
     written = [write_json_atomic(out / "calibration.json", doc)]
     for line in family.calibration_lines(m, doc):
         report(line)

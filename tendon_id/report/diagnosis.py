@@ -170,5 +170,5 @@ def write_report(result: DiagnosisResult, out: str | os.PathLike, json_path: str
     """Write the HTML page (and the JSON) atomically."""
     path = report_page(result).write(out)
     if json_path is not None:
-        write_json_atomic(json_path, result.to_dict(), strict=True)
+        write_json_atomic(json_path, result.to_dict())
     return path

@@ -412,5 +412,5 @@ def write_report(
     """Write the HTML page (and the JSON summary) atomically."""
     path = report_page(result).write(out)
     if json_path is not None:
-        write_json_atomic(json_path, result.to_dict(), strict=True)
+        write_json_atomic(json_path, result.to_dict())
     return path

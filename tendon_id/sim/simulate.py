@@ -133,7 +133,7 @@ def simulate(
     settings = recipe.protocol(protocol)
     if frames is not None:
         settings = type(settings)(**{**settings.__dict__, "frames": check_count("frames", frames, 2)})
-    seed = recipe.seed if seed is None else int(seed)
+    seed = recipe.seed if seed is None else check_count("seed", seed, 0)  # numpy seeds are non-negative
     eff: Effects = recipe.effects if effects is None else recipe.effects.with_enabled(parse_effect_names(effects))
     geometry = recipe.robot_for(protocol)
     n, dt = geometry.n_modules, recipe.dt

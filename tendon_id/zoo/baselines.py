@@ -256,7 +256,7 @@ class _Baseline(TransmissionModel):
         self.geometry_ = RobotGeometry.from_dict(state["geometry"])
         cfg = dict(state["config"])
         cfg["hidden"] = tuple(cfg["hidden"])
-        self.net_ = load_weights(build_baseline(BaselineConfig(**cfg)), arrays)
+        self.net_ = load_weights(lambda: build_baseline(BaselineConfig(**cfg)), arrays)
         self.n_parameters_ = int(state.get("n_parameters", count_parameters(self.net_)))
         self.history_ = state.get("history", {})
 

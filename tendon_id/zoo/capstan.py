@@ -263,6 +263,15 @@ class CapstanModel(CapstanStructure, TransmissionModel):
             )
         if not (np.all(np.isfinite(self.A_)) and np.all(np.isfinite(self.B_))):
             raise ConfigError("arrays A and B hold NaN or inf")
+        # mu(alpha) = A cos(alpha) + B >= 0 on [0, pi] iff B >= |A| (friction_models.mu_laws); the
+        # calibration keeps every law there, so a law outside is a damaged or hand-made file.
+        slack = 1e-12 * max(1.0, float(np.max(np.abs(self.A_))))
+        if self.mu_law == "affine-cosine" and np.any(self.B_ < np.abs(self.A_) - slack):
+            g, i = np.argwhere(self.B_ < np.abs(self.A_) - slack)[0]
+            raise ConfigError(
+                f"arrays A and B give a negative friction coefficient: B < |A| at guide row {g}, tendon {i + 1} "
+                f"(A {self.A_[g, i]:g}, B {self.B_[g, i]:g}); mu(alpha) = A cos(alpha) + B needs B >= |A|"
+            )
 
     def _hold_saved_geometry(self) -> None:
         """A model saved before the routing wrap and the clearance were fitted ran with its robot's: hold them.

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.checks import check_choice, check_count, check_positive
+from tendon_id.robot_file import resolve_robot
 from tendon_id.zoo.blocks import Block, HookContext, RoutingWrap, as_block, compose
 from tendon_id.zoo.chain import ExponentTerms, apply_sensor, exponent, exponent_terms, propagate_chain
 from tendon_id.zoo.inputs import TransmissionInputs
@@ -39,6 +40,9 @@ class CapstanStructure:
     # ---- structure -----------------------------------------------------------
     def check_settings(self) -> None:
         self._validated()
+        check_positive("xtol_rel", self.xtol_rel)  # NaN would stop nlopt at once, with no fit
+        if self.robot is not None:
+            resolve_robot(self.robot)  # a robot table or file that is no robot: refused before any data
 
     def _validated(self) -> tuple[Block, ...]:
         check_choice("mu_law", self.mu_law, MU_LAWS, what="friction law")

@@ -15,16 +15,16 @@ import abc
 import hashlib
 import inspect
 import io
-import json
 import os
 from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 
-from tendon_id.atomic import atomic_write, write_group, write_text_atomic
-from tendon_id.checks import check_keys
+from tendon_id.atomic import atomic_write_all, json_text, write_group
+from tendon_id.checks import check_finite_result, check_keys
 from tendon_id.errors import TendonIdError
+from tendon_id.zoo.arrays_file import members_record
 
 FORMAT_VERSION = 1
 #: The arrays' file of a model folder, and the key of ``model.json`` that records its digest.
@@ -88,6 +88,14 @@ class Estimator(abc.ABC):
     def _restore(self, state: dict, arrays: dict[str, np.ndarray]) -> None:
         """Set the fitted state from :meth:`_state`'s output."""
 
+    def check_finite_fit(self, inputs: str = "its data") -> None:
+        """Raise :class:`~tendon_id.errors.NonFiniteResult` where a fitted array is NaN or inf.
+
+        A fit that diverged is an error naming ``inputs`` (the files it was fitted on), never a model.
+        """
+        self.check_fitted()
+        _check_finite_state(self.name, *self._state(), inputs)
+
     def _json_params(self) -> dict:
         return {k: _jsonable(v) for k, v in self.get_params().items()}
 
@@ -102,6 +110,7 @@ class Estimator(abc.ABC):
         self.check_fitted()
         folder = Path(path)
         state, arrays = self._state()
+        _check_finite_state(self.name, state, arrays, "its data")  # a diverged fit is never saved
         buf = io.BytesIO()
         np.savez(buf, **{k: np.asarray(v) for k, v in arrays.items()})
         blob = buf.getvalue()
@@ -110,12 +119,27 @@ class Estimator(abc.ABC):
             "model": self.name,
             "params": self._json_params(),
             "state": state,
-            ARRAYS_KEY: {"file": ARRAYS_FILE, "sha256": hashlib.sha256(blob).hexdigest(), "bytes": len(blob)},
+            ARRAYS_KEY: {
+                "file": ARRAYS_FILE,
+                "sha256": hashlib.sha256(blob).hexdigest(),
+                "bytes": len(blob),
+                "members": members_record(arrays),  # what load reads, and the sizes it checks first
+            },
         }
-        text = json.dumps(doc, indent=2, sort_keys=True) + "\n"
-        with write_group(folder):
-            atomic_write(folder / ARRAYS_FILE, lambda tmp: _write_blob(tmp, blob))
-            write_text_atomic(folder / "model.json", text)
+        text = json_text(doc, sort_keys=True) + "\n"  # standard JSON: an undefined value is null
+        new_folder = not folder.exists()
+        try:
+            with write_group(folder):  # both files written, then both renamed: a full disk replaces neither
+                atomic_write_all(
+                    [
+                        (folder / ARRAYS_FILE, lambda tmp: _write_blob(tmp, blob)),
+                        (folder / "model.json", lambda tmp: Path(tmp).write_text(text, encoding="utf-8")),
+                    ]
+                )
+        except BaseException:
+            if new_folder and folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()  # the folder this save made, and nothing in it
+            raise
         return folder
 
     @classmethod
@@ -128,6 +152,16 @@ class Estimator(abc.ABC):
         model = cls._from_params(params)
         model._restore(state, arrays)
         return model
+
+
+#: Entries of a fitted state that report on the fit rather than define the model: a NaN there is
+#: an undefined figure (a loss that never ran, a correlation of a fixed parameter), not a result.
+_REPORTS = ("history", "calibration", "guard", "r2")
+
+
+def _check_finite_state(name: str, state: dict, arrays: dict, inputs: str) -> None:
+    fitted = {"state": state, "arrays": {k: np.asarray(v) for k, v in arrays.items()}}
+    check_finite_result(fitted, what=f"fitting {name}", inputs=inputs, undefined=_REPORTS)
 
 
 def _write_blob(tmp: str, blob: bytes) -> None:

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.data import Recording
+from tendon_id.data.frame import FrameRecording
 from tendon_id.errors import ConfigError, DefaultedGeometryWarning
 from tendon_id.family.inputs import FrameInputs
 from tendon_id.geometry import RobotGeometry, backbone_wrap, si_description
@@ -21,8 +22,14 @@ from tendon_id.sliding import guide_sliding_distance
 
 def as_recordings(data: Recording | Sequence[Recording]) -> list[Recording]:
     """A list of recordings from one recording or a sequence of them."""
-    recs = [data] if isinstance(data, Recording) else list(data)
-    if not recs or not all(isinstance(r, Recording) for r in recs):
+    recs = [data] if isinstance(data, FrameRecording) else list(data)
+    other = next((r for r in recs if not isinstance(r, Recording)), None)
+    if other is not None:
+        raise ConfigError(
+            f"{getattr(other, 'source', None) or 'a recording'} is a {type(other).__name__}: this model reads a "
+            "snake robot's recordings (a passage model, passage-capstan, reads a bench's)"
+        )
+    if not recs:
         raise ConfigError("expected a Recording or a non-empty sequence of Recordings")
     return recs
 

@@ -338,8 +338,9 @@ class PGCHTC(GuardedCascade):
         unit = dict(state["unit"])
         unit["hidden"] = tuple(unit["hidden"])
         n_t = int(state.get("n_tendons", 3))  # a model saved before the count: the paper's 3
-        cascade = Cascade(self.n_modules_ - 1, UnitConfig(**unit), tied=bool(state["tied"]), n_tendons=n_t)
-        self.cascade_ = load_weights(cascade, arrays)
+        self.cascade_ = load_weights(
+            lambda: Cascade(self.n_modules_ - 1, UnitConfig(**unit), tied=bool(state["tied"]), n_tendons=n_t), arrays
+        )
         self.prior_A_, self.prior_B_ = np.asarray(state["prior_A"]), np.asarray(state["prior_B"])
         self.history_ = state.get("history", {})
         self._restore_prior(state, arrays)

@@ -306,5 +306,7 @@ class PGCHTCNS(GuardedCascade):
             cfg = dict(cfg)
             tied = bool(cfg.pop("tied"))
             cfg["hidden"] = tuple(cfg["hidden"])
-            cascade = CorrectedCascade(self.n_modules_ - 1, CorrectionConfig(**cfg), tied, n_tendons=self._n_tendons)
-            self.cascade_ = load_weights(cascade, arrays)
+            self.cascade_ = load_weights(
+                lambda: CorrectedCascade(self.n_modules_ - 1, CorrectionConfig(**cfg), tied, n_tendons=self._n_tendons),
+                arrays,
+            )

@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import json
 import os
-import zipfile
 from pathlib import Path
-
-import numpy as np
 
 from tendon_id.atomic import sha256_file
 from tendon_id.errors import ConfigError
+from tendon_id.zoo.arrays_file import read_arrays
 from tendon_id.zoo.estimator import ARRAYS_FILE, ARRAYS_KEY, FORMAT_VERSION, Estimator
 from tendon_id.zoo.registry import model_class
 
@@ -45,14 +43,32 @@ def load(path: str | os.PathLike) -> Estimator:
         raise ConfigError(f"{doc_path}: unsupported model format {doc.get('format')!r}")
     if not isinstance(doc.get("model"), str):
         raise ConfigError(f'{doc_path}: its "model" must be a model\'s name (a string), got {doc.get("model")!r:.60}')
-    cls = model_class(doc["model"])
+    try:
+        cls = model_class(doc["model"])
+    except ConfigError as exc:
+        raise ConfigError(f"{doc_path}: {exc.reason}") from None
     arrays_path = folder / ARRAYS_FILE
     check_arrays_digest(doc_path, doc.get(ARRAYS_KEY), arrays_path)
-    arrays = _read_arrays(arrays_path) if arrays_path.is_file() else {}
+    record = doc.get(ARRAYS_KEY)
+    members = record.get("members") if isinstance(record, dict) else None
+    if members is not None and not isinstance(members, dict):
+        raise ConfigError(f'{doc_path}: its "{ARRAYS_KEY}.members" entry is not an object')
+    arrays = read_arrays(arrays_path, members) if arrays_path.is_file() else {}
+    params = doc.get("params", {})
+    if not isinstance(params, dict):
+        raise ConfigError(f'{doc_path}: its "params" must be an object of settings')
+    try:  # the settings, as a fit would check them: a hand-edited one is blamed on model.json
+        cls(**params).check_settings()
+    except ConfigError as exc:
+        raise ConfigError(
+            f"{doc_path}: params.{exc.param}: {exc.reason}" if exc.param else f"{doc_path}: {exc}"
+        ) from None
+    except TypeError as exc:  # a setting the model does not have
+        raise ConfigError(f"{doc_path}: params: {exc}") from None
     try:
         state = doc.get("state", {})
         return cls.from_saved(
-            doc.get("params", {}),
+            params,
             _Blaming(state, doc_path, "state entry") if isinstance(state, dict) else state,
             _Blaming(arrays, arrays_path, "array"),
         )
@@ -106,14 +122,3 @@ def check_arrays_digest(doc_path: Path, record, arrays_path: Path) -> None:
             f"{arrays_path}: does not belong with {doc_path.name} (its SHA-256 is not the one recorded there): the "
             "folder mixes two saves, or the file was cut off or changed; fit again into the folder"
         )
-
-
-def _read_arrays(path: Path) -> dict[str, np.ndarray]:
-    """Plain arrays of an ``.npz``; a pickle or an object array is refused, never loaded."""
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            return {k: npz[k] for k in npz.files}
-    except ValueError:  # numpy's refusal of pickled data and of object arrays
-        raise ConfigError(f"{path}: holds pickled or object data, which tendon-id never loads") from None
-    except (zipfile.BadZipFile, EOFError, OSError) as exc:
-        raise ConfigError(f"{path}: not a readable .npz of arrays ({type(exc).__name__}: {exc})") from None

@@ -98,20 +98,24 @@ def test_concurrent_csv_writers_leave_one_writers_data_and_metadata(tmp_path, mo
     a = simulate("snake12-paper", protocol="posterior-3", frames=200, seed=1)
     b = simulate("snake12-paper", protocol="posterior-3", frames=200, seed=2)
     path = tmp_path / "x.csv"
-    real = io.atomic_write
+    real = io.atomic_write_all
     other = threading.Thread(target=b.write, args=(path,))
     seen = {}
 
-    def write_then_race(target, write):
-        done = real(target, write)
-        if target.suffix == ".json" and "started" not in seen:  # the sidecar is in; the CSV is next
-            seen["started"] = True
-            other.start()
-            time.sleep(0.5)
-            seen["waiting"] = other.is_alive()
-        return done
+    def write_then_race(writes):
+        (side, write_side), rest = writes[0], writes[1:]
 
-    monkeypatch.setattr(io, "atomic_write", write_then_race)
+        def sidecar_then_race(tmp):
+            write_side(tmp)
+            if "started" not in seen:  # the sidecar is written; the CSV is next
+                seen["started"] = True
+                other.start()
+                time.sleep(0.5)
+                seen["waiting"] = other.is_alive()
+
+        return real([(side, sidecar_then_race), *rest])
+
+    monkeypatch.setattr(io, "atomic_write_all", write_then_race)
     a.write(path)
     other.join(timeout=60)
     assert seen["waiting"], "the second writer did not wait for the first"

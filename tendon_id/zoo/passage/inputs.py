@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from friction_models import play_operator
+from tendon_id.data.frame import FrameRecording
 from tendon_id.data.passage import PassageRecording
 from tendon_id.errors import ConfigError
 from tendon_id.family.inputs import FrameInputs
@@ -21,9 +22,10 @@ SPEED_WINDOW_S = 0.02
 
 def as_passages(data: PassageRecording | Sequence[PassageRecording]) -> list[PassageRecording]:
     """A list of passage recordings from one or a sequence of them (same quantity)."""
-    recs = [data] if isinstance(data, PassageRecording) else list(data)
-    if not recs or not all(isinstance(r, PassageRecording) for r in recs):
-        got = type(recs[0]).__name__ if recs else "nothing"
+    recs = [data] if isinstance(data, FrameRecording) else list(data)
+    other = next((r for r in recs if not isinstance(r, PassageRecording)), None)
+    if not recs or other is not None:
+        got = "nothing" if not recs else f"{getattr(other, 'source', None) or 'a recording'} ({type(other).__name__})"
         raise ConfigError(
             f"a passage model reads single-passage recordings (read a bench's files through a mapping), got {got}"
         )

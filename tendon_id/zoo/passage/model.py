@@ -16,6 +16,7 @@ desired output, as feedforward.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
@@ -25,7 +26,7 @@ from numpy.typing import NDArray
 from friction_models.maxwell_slip import maxwell_slip_output
 from friction_models.passage import pair_input, pair_output, tendon_input, tendon_output
 from friction_models.play_operator import play_output
-from tendon_id.checks import check_choice
+from tendon_id.checks import check_choice, check_count, check_positive
 from tendon_id.data.passage import PassageRecording
 from tendon_id.errors import ConfigError
 from tendon_id.family.registry import family_named
@@ -123,6 +124,9 @@ class PassageCapstan(PassageModel):
 
     # ---- structure -------------------------------------------------------------------
     def check_settings(self) -> None:
+        check_count("n_starts", self.n_starts, 1)
+        check_count("maxeval", self.maxeval, 10)
+        check_positive("warmup_s", self.warmup_s, "s", allow_zero=True)
         for b in self.block_objects:
             missing = [r for r in b.requires if r not in self.blocks]
             if missing:
@@ -244,8 +248,19 @@ class PassageCapstan(PassageModel):
         return {"quantity": self.quantity_, "theta": self.theta_, "calibration": self.calibration_}, {}
 
     def _restore(self, state, arrays):
-        self.quantity_ = state["quantity"]
-        self.theta_ = {k: float(v) for k, v in state["theta"].items()}
+        self.quantity_ = check_choice("state.quantity", state["quantity"], LAW_PARAMS, what="quantity")
+        theta = state["theta"]
+        if not isinstance(theta, dict):
+            raise ConfigError(f"state.theta must be an object of parameter values, got {type(theta).__name__}")
+        need = list(LAW_PARAMS[self.quantity_]) + [f"{b.effect}:{p}" for b in self.block_objects for p in b.param_names]
+        missing = [k for k in need if k not in theta]
+        if missing:
+            raise ConfigError(f"state.theta has no {missing[0]!r}, which this model's law and blocks need")
+        self.theta_ = {k: float(v) for k, v in theta.items()}
+        bad = [k for k in need if not math.isfinite(self.theta_[k])]
+        if bad or self.theta_["gain"] <= 0 or self.theta_["phi"] < 0:
+            # the capstan law: a positive gain and a non-negative exponent mu*alpha (Euler-Eytelwein)
+            raise ConfigError(f"state.theta holds a value no fit gives ({(bad or ['gain or phi'])[0]})")
         self.calibration_ = state.get("calibration", {})
 
 
