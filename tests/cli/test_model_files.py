@@ -168,7 +168,11 @@ CASES = {
         _resealed(lambda f: np.savez(f / "arrays.npz", A=np.full((1, 3), 0.3), B=np.full((1, 3), 0.1))),
         "B < |A|",
     ),
-    "an array the record does not list": ("cap", _resealed(lambda f: _add_member(f, "evil", np.ones(3)), record="keep"), "evil"),
+    "an array the record does not list": (
+        "cap",
+        _resealed(lambda f: _add_member(f, "evil", np.ones(3)), record="keep"),
+        "evil",
+    ),
     "a .npy cut short of its header's promise": ("cap", _resealed(_short_npy), "holds 40"),
     "a .npy header claiming 2^40 elements": ("cap", _resealed(_huge_header), "but model.json records <f8 (1, 3)"),
     "the same, in a model saved without a record": (
