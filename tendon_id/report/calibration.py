@@ -11,7 +11,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from tendon_id.atomic import atomic_write, write_json_atomic
-from tendon_id.calibration.posterior import sample_posterior
 from tendon_id.checks import check_choice
 from tendon_id.family.registry import family_names, get_family
 from tendon_id.report.html import pyplot
@@ -22,6 +21,17 @@ __all__ = ["RHAT_MIXED", "calibration_model", "fit_calibration", "law_models", "
 #: Split R-hat below which the chains count as mixed (Vehtari et al. 2021 recommend 1.01; emcee's
 #: walkers are not independent chains, so the looser 1.05 of Gelman et al.'s BDA3 is used).
 RHAT_MIXED = 1.05
+
+
+def sample_posterior(model, recordings, **options):
+    """:func:`tendon_id.calibration.posterior.sample_posterior`, imported when a posterior is asked for.
+
+    The sampler loads emcee, ArviZ and scipy.stats, seconds of start-up that a calibration without
+    a posterior, and every worker of a fleet (:mod:`tendon_id.report.fleet`), does without.
+    """
+    from tendon_id.calibration import posterior
+
+    return posterior.sample_posterior(model, recordings, **options)
 
 
 def law_models() -> list[str]:
