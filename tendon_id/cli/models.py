@@ -112,9 +112,15 @@ def calibrate(
         help="passage-capstan's effect blocks, comma-separated (stick_slip, smooth_edge, ...).",
     ),
     mapping: Optional[str] = mapping_option(),
-    posterior: bool = typer.Option(False, "--posterior", metavar="", help="Also sample the emcee posterior."),
+    posterior: bool = typer.Option(
+        False, "--posterior", metavar="", help="Also sample the emcee posterior (not with --each)."
+    ),
     out: Path = typer.Option(
-        ..., "--out", metavar="DIR", help="Output folder: calibration.json (+ posterior.json, corner.png)."
+        ...,
+        "--out",
+        metavar="DIR",
+        help="Output folder: calibration.json (+ posterior.json, corner.png); with --each, one such folder "
+        "per file and fleet.json.",
     ),
     seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the multi-start and of the sampler."),
     each: bool = typer.Option(
@@ -127,7 +133,9 @@ def calibrate(
     n_jobs: int = typer.Option(
         1, "--jobs", metavar="N", help="With --each: files calibrated in parallel (joblib; -1: every core)."
     ),
-    json_out: Optional[str] = json_option("calibration.json's content and the files written"),
+    json_out: Optional[str] = json_option(
+        "calibration.json's content (with --each, fleet.json's) and the files written"
+    ),
 ) -> int:
     """Constrained calibration with nlopt (a snake's law, a passage's law and blocks), and its emcee posterior."""
     from tendon_id.report.calibration import calibration_model, run_calibration
