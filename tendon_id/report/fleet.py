@@ -89,7 +89,7 @@ def calibrate_one(
     seed : int
         Seeds the multi-start.
     record_warnings : bool
-        Return the warnings (:attr:`FileCalibration.warnings`) instead of showing them. Only
+        Return the warnings (in ``warnings`` of the result) instead of showing them. Only
         for a process of its own: the record swaps the process's warning filters, which
         threads share.
 
@@ -162,7 +162,7 @@ def _read_every(paths: list[Path], mapping: DataMapping | None, family) -> list:
             rec = read_files([p], mapping)[0]
             family.recordings(rec, "data")  # a file of another family: refused now, not in its job
         except RecordingError as exc:
-            bad.append(exc)
+            bad.append(exc if exc.file else RecordingError(exc.reason, file=str(p), column=exc.column, row=exc.row))
         except TendonIdError as exc:
             bad.append(RecordingError(str(exc), file=str(p)))
         else:
@@ -265,7 +265,7 @@ def calibrate_fleet(
     results = Parallel(n_jobs=n_jobs, return_as="generator")(jobs)  # in order, each as soon as it is done
     entries = []
     for path, name, rec, result in progress_bar(
-        zip(paths, names, recordings, results), desc="calibrate", total=len(paths), unit="file"
+        zip(paths, names, recordings, results), desc="file", total=len(paths), unit=""
     ):
         for message, category in result.warnings:
             warnings.warn(message, category, stacklevel=2)
