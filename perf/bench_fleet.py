@@ -6,11 +6,14 @@ Usage: python perf/bench_fleet.py [--files 8] [--frames 5000] [--jobs 1 2] [--re
 Data: ``--files`` terminal-only recordings of the recipe (one simulator seed each), written as
 Parquet files, as a fleet of robots or of days would be.  Each ``--jobs`` setting calibrates the
 whole fleet (:func:`tendon_id.report.fleet.calibrate_fleet`, what ``tendon-id calibrate --each``
-runs) ``--repeats`` times in this process: the first run with more than one job includes starting
-joblib's worker processes (loky's, reused afterwards), so both the first and the best run are
-reported.  The speed-up is the best time of the first setting over the best of each other, measured
-on one machine in one run.  The load average (``/proc/loadavg``) before and after tells whether
-other work shared the cores.  Every setting must give the same results (wall times aside).
+runs) ``--repeats`` times in this process, the settings taking turns (1, 2, 1, 2, ...) so that a
+change of the machine's load weighs on each alike.  The first run with more than one job includes
+starting joblib's worker processes (loky's, reused afterwards), so both the first and the best run
+are reported.  The speed-up is the best time of the first setting over the best of each other,
+measured on one machine in one run.  Whether the cores were free shows in the load average
+(``/proc/loadavg``) before and after, and in the cores a run obtained: the CPU time of this process
+and its workers over the wall time (with psutil).  Every run must give the same results (wall times
+aside).
 """
 
 from __future__ import annotations
@@ -36,6 +39,23 @@ def loadavg() -> list[float] | None:
         return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
     except OSError:
         return None
+
+
+def cpu_seconds() -> float | None:
+    """CPU time [s] of this process and its children alive now (joblib's workers), where psutil is installed."""
+    try:
+        import psutil
+    except ImportError:
+        return None
+    me = psutil.Process()
+    total = 0.0
+    for p in [me, *me.children(recursive=True)]:
+        try:
+            t = p.cpu_times()
+        except psutil.Error:  # a worker that ended in between
+            continue
+        total += t.user + t.system
+    return total
 
 
 def timeless(doc: dict) -> str:
@@ -75,21 +95,25 @@ def main() -> None:
             simulate(recipe, "terminal-only", frames=args.frames, seed=seed).recording.write(path)
             paths.append(path)
         first_doc = None
-        for jobs in args.jobs:
-            times = []
-            for r in range(args.repeats):
-                t0 = time.perf_counter()
+        runs = {jobs: {"n_jobs": jobs, "seconds": [], "cores": [], "fit_s_sum": []} for jobs in args.jobs}
+        for r in range(args.repeats):
+            for jobs in args.jobs:
+                cpu0, t0 = cpu_seconds(), time.perf_counter()
                 doc = calibrate_fleet(paths, model=args.model, out=root / f"out-{jobs}-{r}", n_jobs=jobs)
-                times.append(time.perf_counter() - t0)
+                wall = time.perf_counter() - t0
+                cpu = cpu_seconds()
                 first_doc = first_doc or doc
                 if timeless(doc) != timeless(first_doc):
                     raise SystemExit(f"n_jobs={jobs}: the results differ from the first run's")
-            fits = sum(e["seconds"] for e in doc["entries"])
-            out["runs"].append({"n_jobs": jobs, "seconds": times, "best_s": min(times), "fit_s_sum": fits})
-            print(
-                f"n_jobs={jobs}: {', '.join(f'{t:.1f}' for t in times)} s (best {min(times):.1f} s; "
-                f"the {len(paths)} fits themselves {fits:.1f} s in all)"
-            )
+                run = runs[jobs]
+                run["seconds"].append(wall)
+                run["cores"].append(None if cpu is None else (cpu - cpu0) / wall)
+                run["fit_s_sum"].append(sum(e["seconds"] for e in doc["entries"]))
+                cores = "" if cpu is None else f", {run['cores'][-1]:.2f} cores"
+                print(f"round {r + 1}, n_jobs={jobs}: {wall:.1f} s{cores} (the fits {run['fit_s_sum'][-1]:.1f} s)")
+        out["runs"] = list(runs.values())
+        for run in out["runs"]:
+            run["best_s"] = min(run["seconds"])
     base = out["runs"][0]["best_s"]
     for run in out["runs"][1:]:
         run["speedup"] = base / run["best_s"]

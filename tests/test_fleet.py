@@ -111,6 +111,17 @@ def test_a_file_refused_at_fit_time_is_recorded_and_the_others_kept(files, tmp_p
     assert not (tmp_path / "f" / "b").exists() and not (tmp_path / "f" / "a-2").exists()
 
 
+def test_a_bench_fleet_gives_each_file_its_rmse_in_its_unit(tmp_path):
+    paths = [tmp_path / "run0.csv", tmp_path / "run1.csv"]
+    for seed, path in enumerate(paths):
+        tendon_passage(seed, n=600).write(path)
+    doc = calibrate_fleet(paths, model="passage-capstan", settings={"blocks": ["stick_slip"]}, out=tmp_path / "f")
+    assert [(e["status"], e["unit"], e["loss"]) for e in doc["entries"]] == [("ok", "N", None)] * 2
+    for e in doc["entries"]:
+        cal = json.loads((tmp_path / "f" / e["name"] / "calibration.json").read_text())
+        assert e["rmse"] == cal["predicted"]["rmse"] < 0.5  # on tensions of about 30 N
+
+
 def test_the_fleet_runs_unchanged_on_a_dask_cluster(files, tmp_path):
     distributed = pytest.importorskip("distributed")
     from joblib import parallel_config

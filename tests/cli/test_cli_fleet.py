@@ -100,3 +100,22 @@ def test_a_file_that_fails_at_fit_time_is_named_and_the_other_kept(
     doc = json.loads((out / "fleet.json").read_text())
     assert [e["status"] for e in doc["entries"]] == ["ok", status] and doc[status] == 1
     assert files(out) == ["fleet.json", "p6/calibration.json", "p6/model/arrays.npz", "p6/model/model.json"]
+
+
+def test_ctrl_c_keeps_the_files_already_calibrated_and_names_them(two, tmp_path, capsys, monkeypatch):
+    real = fleet_module.fit_calibration
+    calls = []
+
+    def fit(recordings, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(recordings, **kwargs)
+
+    monkeypatch.setattr(fleet_module, "fit_calibration", fit)
+    out = tmp_path / "f"
+    code, _, err = run(capsys, "calibrate", "--model", "capstan-simple", "--data", two[0], "--data", two[1],
+                       "--each", "--out", out)  # fmt: skip
+    assert code == 130 and "interrupted during calibrate capstan-simple on each of 2 files, file 1 of 2" in err, err
+    assert f"wrote only {out / 'p6' / 'calibration.json'}" in err
+    assert files(out) == ["p6/calibration.json", "p6/model/arrays.npz", "p6/model/model.json"]  # whole, no fleet.json
