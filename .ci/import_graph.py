@@ -30,6 +30,7 @@ GENERIC = (
     "tendon_id.family",
     "tendon_id.diagnosis",
     "tendon_id.report.calibration",
+    "tendon_id.report.fleet",
     "tendon_id.calibration.posterior",
     "tendon_id.calibration.mcmc",
     "tendon_id.calibration.optimize",

@@ -22,6 +22,7 @@ from tendon_id.cli.common import (
     read_all,
     training_warnings,
 )
+from tendon_id.errors import ConfigError
 from tendon_id.extras import require_extra
 from tendon_id.progress import stage
 from tendon_id.zoo.guard import quiet_guard
@@ -117,16 +118,38 @@ def calibrate(
         help="passage-capstan's effect blocks, comma-separated (stick_slip, smooth_edge, ...).",
     ),
     mapping: Optional[str] = mapping_option(),
-    posterior: bool = typer.Option(False, "--posterior", metavar="", help="Also sample the emcee posterior."),
+    posterior: bool = typer.Option(
+        False, "--posterior", metavar="", help="Also sample the emcee posterior (not with --each)."
+    ),
     out: Path = typer.Option(
-        ..., "--out", metavar="DIR", help="Output folder: calibration.json (+ posterior.json, corner.png)."
+        ...,
+        "--out",
+        metavar="DIR",
+        help="Output folder: calibration.json (+ posterior.json, corner.png); with --each, one such folder "
+        "per file and fleet.json.",
     ),
     seed: int = typer.Option(0, "--seed", metavar="N", min=0, help="Seed of the multi-start and of the sampler."),
-    json_out: Optional[str] = json_option("calibration.json's content and the files written"),
-) -> None:
+    each: bool = typer.Option(
+        False,
+        "--each",
+        metavar="",
+        help="One calibration per --data file, not one pooled over them: DIR/<file's stem>/ each, and "
+        "DIR/fleet.json. Exit 2 if any file's data is refused, 1 if any fails otherwise.",
+    ),
+    n_jobs: int = typer.Option(
+        1, "--jobs", metavar="N", help="With --each: files calibrated in parallel (joblib; -1: every core)."
+    ),
+    json_out: Optional[str] = json_option(
+        "calibration.json's content (with --each, fleet.json's) and the files written"
+    ),
+) -> int:
     """Constrained calibration with nlopt (a snake's law, a passage's law and blocks), and its emcee posterior."""
     from tendon_id.report.calibration import calibration_model, run_calibration
 
+    if each and posterior:
+        raise ConfigError("--posterior is not taken with --each: sample each file's posterior on its own")
+    if not each and n_jobs != 1:
+        raise ConfigError("taken with --each only (one pooled calibration is one job)", param="n_jobs")
     if posterior:
         require_extra("posterior", "--posterior (its corner plot)")
     check_writable(out, "--out", folder=True)
@@ -135,6 +158,8 @@ def calibrate(
     if blocks is not None:
         settings["blocks"] = [b.strip() for b in blocks.split(",") if b.strip()]
     calibration_model(model, settings, seed)  # a bad model, setting or block fails before the data is read
+    if each:
+        return _calibrate_each(data, model, settings, mapping, out, seed, n_jobs, js)
     recs = read_all(data, mapping)
     check_fit_data(recs, data)
     with js.lines():
@@ -148,3 +173,33 @@ def calibrate(
         summary = js.emit({"files": [str(p) for p in written], "calibration": calibration})
         if summary:
             typer.echo(f"wrote {summary}")
+    return 0
+
+
+def _calibrate_each(data, model, settings, mapping, out, seed, n_jobs, js) -> int:
+    """``calibrate --each``: one result per file (:func:`tendon_id.report.fleet.calibrate_fleet`); the exit code.
+
+    0 when every file is calibrated, 2 when a file's data is refused at fit time (bad input, as
+    everywhere), 1 when one fails otherwise (an internal error); the others' results are kept either way.
+    """
+    from tendon_id.data.mapping import load_mapping
+    from tendon_id.datasets import mapping_path
+    from tendon_id.report.fleet import FLEET_FILE, calibrate_fleet
+
+    if not data:
+        raise ConfigError("give at least one recording", param="data")
+    with js.lines():
+        with stage(f"calibrate {model} on each of {len(data)} files"):
+            doc = calibrate_fleet(
+                data, model=model, settings=settings, out=out, seed=seed, n_jobs=n_jobs,
+                mapping=load_mapping(mapping_path(mapping)) if mapping else None, report=typer.echo,
+            )  # fmt: skip
+        typer.echo(f"calibrated {doc['ok']} of {doc['files']} files; wrote {Path(out) / FLEET_FILE}")
+        for e in doc["entries"]:
+            if e["status"] != "ok":
+                typer.echo(f"tendon-id: error: {e['file']}: {e['reason']}", err=True)
+        written = [str(Path(out) / e["name"]) for e in doc["entries"] if e["status"] == "ok"]
+        summary = js.emit({"files": [*written, str(Path(out) / FLEET_FILE)], "fleet": doc})
+        if summary:
+            typer.echo(f"wrote {summary}")
+    return 1 if doc["failed"] else 2 if doc["refused"] else 0

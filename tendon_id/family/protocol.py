@@ -21,7 +21,7 @@ its diagnosis             :meth:`Family.splits`, :meth:`Family.candidates`, :met
                           :meth:`Family.signatures`, :meth:`Family.noise_floor`
 its posterior             :meth:`Family.likelihood`
 its reports               :meth:`Family.calibration_doc`, :meth:`Family.calibration_lines`,
-                          :meth:`Family.score_lines`
+                          :meth:`Family.calibration_figures`, :meth:`Family.score_lines`
 its contract              :meth:`Family.check_predictions`, :meth:`Family.check_labels_only`,
                           :meth:`Family.foreign_data`
 ========================  ============================================================
@@ -180,6 +180,15 @@ class Family(abc.ABC):
     def calibration_lines(self, model, doc: dict) -> list[str]:
         """Lines that ``tendon-id calibrate`` prints about ``doc`` (default none)."""
         return []
+
+    def calibration_figures(self, doc: dict) -> dict:
+        """The headline numbers of ``calibration.json`` ``doc``, one row of a fleet's summary.
+
+        ``{"rmse": float, "unit": str, "loss": float or None}``: the calibrated model's RMSE on its
+        data in ``unit``, and the optimiser's loss where the family has one besides the RMSE
+        (:func:`tendon_id.report.fleet.calibrate_fleet`). Default: none (an empty dict).
+        """
+        return {}
 
     @abc.abstractmethod
     def score_lines(self, model, score: dict, recording, name: str) -> list[str]:

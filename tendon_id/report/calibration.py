@@ -11,17 +11,27 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from tendon_id.atomic import atomic_write, write_json_atomic
-from tendon_id.calibration.posterior import sample_posterior
 from tendon_id.checks import check_choice, check_finite_result
 from tendon_id.family.registry import family_names, get_family
 from tendon_id.report.html import pyplot
 from tendon_id.zoo.registry import make, model_class
 
-__all__ = ["RHAT_MIXED", "calibration_model", "law_models", "run_calibration"]
+__all__ = ["RHAT_MIXED", "calibration_model", "fit_calibration", "law_models", "run_calibration", "write_calibration"]
 
 #: Split R-hat below which the chains count as mixed (Vehtari et al. 2021 recommend 1.01; emcee's
 #: walkers are not independent chains, so the looser 1.05 of Gelman et al.'s BDA3 is used).
 RHAT_MIXED = 1.05
+
+
+def sample_posterior(model, recordings, **options):
+    """:func:`tendon_id.calibration.posterior.sample_posterior`, imported when a posterior is asked for.
+
+    The sampler loads emcee, ArviZ and scipy.stats, seconds of start-up that a calibration without
+    a posterior, and every worker of a fleet (:mod:`tendon_id.report.fleet`), does without.
+    """
+    from tendon_id.calibration import posterior
+
+    return posterior.sample_posterior(model, recordings, **options)
 
 
 def law_models() -> list[str]:
@@ -44,6 +54,77 @@ def calibration_model(model: str, settings: dict | None = None, seed: int = 0):
     m = make(model, **settings)
     m.check_settings()
     return m
+
+
+def fit_calibration(recordings: Sequence, *, model: str, settings: dict | None = None, seed: int = 0):
+    """Calibrate ``model`` on ``recordings`` and build its ``calibration.json``, writing nothing.
+
+    The part of :func:`run_calibration` that computes, so that a fleet
+    (:func:`tendon_id.report.fleet.calibrate_fleet`) can run it in a worker and write in the caller.
+
+    Parameters
+    ----------
+    recordings : sequence of recordings
+        Of the model's family.
+    model : str
+        A registered model with a law (:func:`law_models`).
+    settings : dict, optional
+        The model's settings; ``seed`` is added where the model takes one.
+    seed : int
+        Seeds the multi-start.
+
+    Returns
+    -------
+    fitted : Estimator
+        The calibrated model.
+    doc : dict
+        What ``calibration.json`` holds (:meth:`~tendon_id.family.Family.calibration_doc`).
+
+    Raises
+    ------
+    ConfigError
+        For a model without a law, a setting it does not have, or recordings of another family.
+    NonFiniteResult
+        For a fit or a figure of ``calibration.json`` that came out NaN or infinite, naming the files.
+    """
+    m = calibration_model(model, settings, seed)
+    recordings = m.family.recordings(recordings, "recordings")
+    m.fit(recordings)
+    inputs = ", ".join(sorted({str(r.source) for r in recordings if r.source})) or "its data"
+    m.check_finite_fit(inputs)
+    doc = m.family.calibration_doc(m, recordings)
+    # R^2 is undefined (null) for a constant reference; every other number is a result.
+    check_finite_result(doc, what=f"calibrating {model}", inputs=inputs, undefined=("r2",))
+    return m, doc
+
+
+def write_calibration(fitted, doc: dict, out: str | Path, *, report: Callable[[str], None] | None = None) -> list[Path]:
+    """Write ``out/calibration.json`` (``doc``) and the model folder ``out/model``; each file atomically.
+
+    Parameters
+    ----------
+    fitted : Estimator
+        The calibrated model (:func:`fit_calibration`).
+    doc : dict
+        Its ``calibration.json``.
+    out : path-like
+        The output folder (created).
+    report : callable, optional
+        Called with each line the model's family prints about ``doc``.
+
+    Returns
+    -------
+    list of Path
+        ``out/calibration.json`` and ``out/model``.
+    """
+    report = report or (lambda line: None)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [write_json_atomic(out / "calibration.json", doc)]
+    for line in fitted.family.calibration_lines(fitted, doc):
+        report(line)
+    written.append(fitted.save(out / "model"))
+    return written
 
 
 def run_calibration(
@@ -86,23 +167,13 @@ def run_calibration(
     ConfigError
         For a model without a law, a setting it does not have, or recordings of another family.
     """
-    m = calibration_model(model, settings, seed)
-    family = m.family
-    recordings = family.recordings(recordings, "recordings")
     report = report or (lambda line: None)
     out = Path(out)
-    m.fit(recordings)
-    inputs = ", ".join(sorted({str(r.source) for r in recordings if r.source})) or "its data"
-    m.check_finite_fit(inputs)
-    doc = family.calibration_doc(m, recordings)
-    # R^2 is undefined (null) for a constant reference; every other number is a result.
-    check_finite_result(doc, what=f"calibrating {model}", inputs=inputs, undefined=("r2",))
-    out.mkdir(parents=True, exist_ok=True)  # after the fit and its checks: no empty folder is left
-    written = [write_json_atomic(out / "calibration.json", doc)]
-    for line in family.calibration_lines(m, doc):
-        report(line)
-    written.append(m.save(out / "model"))
+    m, doc = fit_calibration(recordings, model=model, settings=settings, seed=seed)
+    # written before the posterior is sampled: a Ctrl-C in the sampler keeps the calibration
+    written = write_calibration(m, doc, out, report=report)  # after the fit: refused data leaves no folder
     if posterior:
+        recordings = m.family.recordings(recordings, "recordings")
         post = sample_posterior(m, recordings, seed=seed)
         doc = post.to_dict()
         mixed = doc["max_rhat"] < RHAT_MIXED

@@ -121,6 +121,10 @@ class PassageFamily(Family):
             for group in doc["confounded"]
         ]
 
+    def calibration_figures(self, doc) -> dict:
+        """The predicted side's RMSE in its unit; the loss is its sum of squares, so no second number."""
+        return {"rmse": doc["predicted"]["rmse"], "unit": doc["unit"], "loss": None}
+
     def score_lines(self, model, score, recording, name) -> list[str]:
         p = score["predicted"]
         unit = diagnosis.UNITS[recording.quantity]

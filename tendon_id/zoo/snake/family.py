@@ -135,6 +135,10 @@ class SnakeFamily(Family):
         clearance = "" if doc["alpha_c"] is None else f", clearance alpha_c = {doc['alpha_c']:.4f} rad"
         return [f"fitted geometry: routing wrap alpha_0 = {doc['alpha_0']:.4f} rad{clearance}"]
 
+    def calibration_figures(self, doc) -> dict:
+        """The terminal RMSE [N] and the loss, the mean squared log error of the terminal reading [-]."""
+        return {"rmse": doc["terminal"]["rmse"], "unit": "N", "loss": doc["calibration"]["loss"]}
+
     def score_lines(self, model, score, recording, name) -> list[str]:
         t = score["terminal"]
         lines = [
