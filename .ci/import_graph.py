@@ -35,6 +35,7 @@ GENERIC = (
     "tendon_id.calibration.mcmc",
     "tendon_id.calibration.optimize",
     "tendon_id.zoo.estimator",
+    "tendon_id.zoo.arrays_file",
     "tendon_id.zoo.registry",
     "tendon_id.zoo.persistence",
     "tendon_id.zoo.testing",

@@ -21,6 +21,7 @@ tribological homogeneity); ``"per-guide"`` gives each guide its own.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -251,7 +252,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         self.n_modules_ = int(state["n_modules"])
         self.geometry_ = RobotGeometry.from_dict(state["geometry"])
         self._hold_saved_geometry()
-        self.block_values_ = {k: dict(v) for k, v in state.get("block_values", {}).items()}
+        self.block_values_ = _block_values(state.get("block_values", {}), self.block_objects)
         self.calibration_ = state.get("calibration", {})
         self.A_ = np.asarray(arrays["A"], dtype=float)
         self.B_ = np.asarray(arrays["B"], dtype=float)
@@ -287,6 +288,26 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         held = ContactGate(alpha_c=geo.alpha_c, gate="hard", fixed=True)
         self.blocks = tuple(held if isinstance(b, ContactGate) else b for b in given)
         self.blocks += (RoutingWrap(alpha_0=geo.alpha_0, fixed=True),)
+
+
+def _block_values(saved, blocks) -> dict[str, dict[str, float]]:
+    """A saved model's fitted block values, each block's parameters present and finite (else a ConfigError)."""
+    if not isinstance(saved, dict) or not all(isinstance(v, dict) for v in saved.values()):
+        raise ConfigError("state.block_values must map each block to its parameter values")
+    out = {}
+    for name, values in saved.items():
+        try:
+            out[name] = {k: float(v) for k, v in values.items()}
+        except (TypeError, ValueError, OverflowError):
+            raise ConfigError(f"state.block_values.{name} holds a value that is not a number") from None
+        bad = [k for k, v in out[name].items() if not math.isfinite(v)]
+        if bad:
+            raise ConfigError(f"state.block_values.{name}.{bad[0]} is not finite")
+    for b in blocks:
+        missing = [p for p in b.param_names if not b.fixed and p not in out.get(b.name, {})]
+        if missing:
+            raise ConfigError(f"state.block_values.{b.name} has no {missing[0]!r}")
+    return out
 
 
 def _preset(name: str, mu_law: str, blocks: tuple[str, ...], doc: str) -> type[CapstanModel]:

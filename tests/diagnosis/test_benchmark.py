@@ -99,11 +99,13 @@ def test_summary_counts_by_hand():
 
 def test_cases_run_unchanged_on_a_dask_cluster():
     distributed = pytest.importorskip("distributed")
-    cases = [Case("single", ("sensor_bias",), "default", 0, 320), Case("null", (), "default", 0, 320)]
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+    # One case: what is tested is that a job crosses to a worker process and back unchanged (the
+    # cases' own figures are the other tests'); a second case doubled the test's minutes in CI.
+    cases = [Case("single", ("sensor_bias",), "default", 0, 320)]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         with distributed.Client(cluster):
             rows = run_cases(cases, backend="dask")
-    assert [r["kind"] for r in rows] == ["single", "null"]
+    assert [r["kind"] for r in rows] == ["single"]
     again = run_cases(cases)  # joblib's default backend, in this process
 
     def strip(rs):

@@ -41,6 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from hostile_cases import MAPPING, bench_csv  # noqa: E402
 
 from tendon_id import zoo  # noqa: E402
+from tendon_id.checks import non_finite_paths  # noqa: E402
 from tendon_id.cli import main  # noqa: E402
 from tendon_id.data.mapping import load_mapping, read_files  # noqa: E402
 from tendon_id.errors import TendonIdError  # noqa: E402
@@ -233,10 +234,13 @@ def run_model_example(saved: Path, which: str, doc_edit, arrays_edit, reseal: st
             if which == "cap":
                 from tendon_id.data import Recording
 
-                pred = _quiet(lambda: model.predict(Recording.read(saved / "p.csv")))[0]
+                rec = Recording.read(saved / "p.csv")
             else:
-                pred = _quiet(lambda: model.predict(read_files([saved / "b.csv"], load_mapping(saved / "b.toml"))))[0]
-            library = "result" if np.all(np.isfinite(pred)) else "non-finite"
+                rec = read_files([saved / "b.csv"], load_mapping(saved / "b.toml"))[0]
+            pred, score = _quiet(lambda: (model.predict(rec), model.score(rec)))[0]
+            # what the command line reports: the metrics, R^2 undefined for a constant reference
+            finite = np.all(np.isfinite(pred)) and not non_finite_paths(score, undefined=("r2",))
+            library = "result" if finite else "non-finite"
         except TendonIdError:
             library = "error"
         code, err = _quiet(lambda: main(["evaluate", "--model", str(folder), *data]))

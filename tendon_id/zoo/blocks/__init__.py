@@ -8,6 +8,8 @@ registers itself in the snake chain's registry :data:`BLOCKS`: by name
 
 from __future__ import annotations
 
+import math
+
 from tendon_id.checks import check_choice
 from tendon_id.errors import ConfigError
 from tendon_id.zoo.blocks.base import BLOCK_TYPES, BLOCKS, EFFECT_BLOCKS, STAGES, Block, HookContext
@@ -57,9 +59,14 @@ def block_from_dict(d: dict) -> Block:
     cls = BLOCK_TYPES[name]
     from_dict = getattr(cls, "from_dict", None)
     try:
-        return from_dict(d) if from_dict is not None else cls(**d)
+        block = from_dict(d) if from_dict is not None else cls(**d)
     except TypeError as exc:
         raise ConfigError(f"block {name!r}: {exc}") from None
+    for p in block.param_names:  # a hand-edited file's value: a finite number, or None (the robot's value)
+        v = getattr(block, p, None)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)):
+            raise ConfigError(f"block {name!r}: {p} must be a finite number, got {v!r}", param="blocks")
+    return block
 
 
 def as_block(b: Block | str | dict) -> Block:
