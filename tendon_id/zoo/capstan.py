@@ -252,7 +252,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         self.n_modules_ = int(state["n_modules"])
         self.geometry_ = RobotGeometry.from_dict(state["geometry"])
         self._hold_saved_geometry()
-        self.block_values_ = _block_values(state.get("block_values", {}), self.block_objects)
+        self.block_values_ = _block_values(state.get("block_values", {}))
         self.calibration_ = state.get("calibration", {})
         self.A_ = np.asarray(arrays["A"], dtype=float)
         self.B_ = np.asarray(arrays["B"], dtype=float)
@@ -290,8 +290,8 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         self.blocks += (RoutingWrap(alpha_0=geo.alpha_0, fixed=True),)
 
 
-def _block_values(saved, blocks) -> dict[str, dict[str, float]]:
-    """A saved model's fitted block values, each block's parameters present and finite (else a ConfigError)."""
+def _block_values(saved) -> dict[str, dict[str, float]]:
+    """A saved model's fitted block values, each a finite number (else a ConfigError)."""
     if not isinstance(saved, dict) or not all(isinstance(v, dict) for v in saved.values()):
         raise ConfigError("state.block_values must map each block to its parameter values")
     out = {}
@@ -303,10 +303,8 @@ def _block_values(saved, blocks) -> dict[str, dict[str, float]]:
         bad = [k for k, v in out[name].items() if not math.isfinite(v)]
         if bad:
             raise ConfigError(f"state.block_values.{name}.{bad[0]} is not finite")
-    for b in blocks:
-        missing = [p for p in b.param_names if not b.fixed and p not in out.get(b.name, {})]
-        if missing:
-            raise ConfigError(f"state.block_values.{b.name} has no {missing[0]!r}")
+    # A block's value missing from the file takes the block's own (a model saved before that
+    # value was fitted predicts as it did); only what is there must be a finite number.
     return out
 
 
