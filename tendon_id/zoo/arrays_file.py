@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -71,7 +72,9 @@ def read_arrays(path: Path, record: dict | None = None) -> dict[str, np.ndarray]
             infos = {i.filename: i for i in zf.infolist()}
             names = _wanted(path, infos, record)
             return {name: _read_member(path, zf, infos[name + ".npy"], (record or {}).get(name)) for name in names}
-    except (zipfile.BadZipFile, EOFError, OSError) as exc:
+    # A damaged zip can name a compression method zipfile lacks, claim encryption (RuntimeError)
+    # or hold a broken deflate stream (zlib.error): each is a file that is no npz of ours.
+    except (zipfile.BadZipFile, EOFError, OSError, NotImplementedError, RuntimeError, zlib.error) as exc:
         raise ConfigError(f"{path}: not a readable .npz of arrays ({type(exc).__name__}: {exc})") from None
 
 
