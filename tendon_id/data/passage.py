@@ -103,8 +103,8 @@ class PassageRecording(FrameRecording):
         rules.check_not_empty(f, source=src)
         numeric = [c for c in PASSAGE_COLUMNS[1:] + OPTIONAL_COLUMNS if c in f.columns]
         rules.check_numeric(f, numeric, source=src)
-        ids = rules.check_trajectory_ids(f, source=src)
-        rules.check_contiguous_trajectories(ids, source=src)
+        ids, names = rules.trajectory_codes(f, source=src)
+        rules.check_contiguous_trajectories(ids, source=src, names=names)
         arrays = {c: float_column(f, c) for c in numeric}
         rules.check_finite(arrays, source=src)
         if self.quantity == "tension":
@@ -113,7 +113,7 @@ class PassageRecording(FrameRecording):
             bad = np.flatnonzero(arrays["wrap"] < 0)
             if bad.size:
                 raise RecordingError("negative wrap angle", file=src, column="wrap", row=int(bad[0]))
-        rules.check_time_increases(arrays["t"], ids, source=src)
+        rules.check_time_increases(arrays["t"], ids, source=src, names=names)
 
     # ---- what a model reads ------------------------------------------------------------
     @property
