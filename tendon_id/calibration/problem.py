@@ -107,7 +107,13 @@ def guide_design(model, inputs, values: dict) -> NDArray[np.float64]:
     """
     m = model.exponent_multiplier(inputs, values)[..., 0]  # (T, K)
     wrap = model.backbone(inputs, values)
-    return np.stack([m * wrap * np.cos(wrap), m * wrap], axis=-1)
+    # Written into one array, the bits of np.stack([m * wrap * cos(wrap), m * wrap], -1) without its
+    # four (T, K) temporaries: the geometry's profile builds this design at every point it tries.
+    out = np.empty(wrap.shape + (2,))
+    np.multiply(m, wrap, out=out[..., 1])
+    np.cos(wrap, out=out[..., 0])
+    out[..., 0] *= out[..., 1]  # cos(wrap) * (m * wrap): the same product, so the same bits
+    return out
 
 
 @dataclass(frozen=True)

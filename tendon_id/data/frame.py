@@ -94,7 +94,8 @@ class FrameRecording(abc.ABC):
     @property
     def trajectory_starts(self) -> np.ndarray:
         """ndarray of bool, shape (T,) : True on the first frame of each trajectory."""
-        return rules.trajectory_starts(self._frame["trajectory"].to_numpy())
+        # From codes: a str per frame would be a Python object per frame.
+        return rules.trajectory_starts(pd.factorize(self._frame["trajectory"])[0])
 
     def signal(self, column: str) -> np.ndarray | None:
         """A numeric column as float64 [SI], or None where the recording has no such column."""

@@ -113,8 +113,8 @@ class PassageRecording(FrameRecording):
         rules.check_not_empty(f, source=src)
         numeric = [c for c in PASSAGE_COLUMNS[1:] + OPTIONAL_COLUMNS if c in f.columns]
         rules.check_numeric(f, numeric, source=src)
-        ids = rules.check_trajectory_ids(f, source=src)
-        rules.check_contiguous_trajectories(ids, source=src)
+        ids, names = rules.trajectory_codes(f, source=src)
+        rules.check_contiguous_trajectories(ids, source=src, names=names)
         arrays = {c: float_column(f, c) for c in numeric}
         rules.check_finite(arrays, source=src)
         rules.check_representable(arrays, source=src)
@@ -128,7 +128,7 @@ class PassageRecording(FrameRecording):
                 w = float(arrays["wrap"][bad[0]])
                 why = "negative wrap angle" if w < 0 else f"wrap angle {w:g} rad beyond a hundred turns"
                 raise RecordingError(why, file=src, column="wrap", row=int(bad[0]))
-        rules.check_time_increases(arrays["t"], ids, source=src)
+        rules.check_time_increases(arrays["t"], ids, source=src, names=names)
 
     # ---- what a model reads ------------------------------------------------------------
     @property

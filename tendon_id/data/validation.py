@@ -24,8 +24,8 @@ from tendon_id.data.rules import (
     check_positive_tensions,
     check_representable,
     check_time_increases,
-    check_trajectory_ids,
     first_hit,
+    trajectory_codes,
     trajectory_starts,
 )
 from tendon_id.data.schema import (
@@ -226,7 +226,7 @@ def check_history_window(frame: pd.DataFrame, h: int, *, source: str | None = No
     """
     if not is_int(h) or h < 1:
         raise ConfigError(f"history window must be a positive integer, got {h!r}")
-    starts = np.flatnonzero(trajectory_starts(frame["trajectory"].to_numpy()))
+    starts = np.flatnonzero(trajectory_starts(pd.factorize(frame["trajectory"])[0]))
     lengths = np.diff(np.append(starts, len(frame)))
     short = np.flatnonzero(lengths < h)
     if short.size:
@@ -246,7 +246,7 @@ def validate(
     """Check a normalised frame against the schema; raise on the first problem.
 
     Runs, in order: :func:`check_not_empty`, :func:`check_numbering`, :func:`check_n_modules`,
-    :func:`check_required_columns`, :func:`check_numeric`, :func:`check_trajectory_ids`,
+    :func:`check_required_columns`, :func:`check_numeric`, :func:`~tendon_id.data.rules.trajectory_codes`,
     :func:`check_contiguous_trajectories`, :func:`check_finite`,
     :func:`check_positive_tensions`, :func:`check_tension_magnitude`, :func:`check_angles_in_rad`,
     :func:`check_time_increases`.
@@ -277,8 +277,8 @@ def validate(
     numeric += [c for c in truth_columns(n, n_t) if c in frame.columns]
     check_numeric(frame, numeric, source=source)
 
-    ids = check_trajectory_ids(frame, source=source)
-    check_contiguous_trajectories(ids, source=source)
+    ids, names = trajectory_codes(frame, source=source)
+    check_contiguous_trajectories(ids, source=source, names=names)
 
     # Finite values first, so the sign and range checks below see numbers only.
     arrays = {c: float_column(frame, c) for c in numeric}
@@ -288,4 +288,4 @@ def validate(
     check_positive_tensions(tensions, source=source)
     check_tension_magnitude(tensions, source=source)
     check_angles_in_rad({c: arrays[c] for c in theta_columns(n)}, source=source)
-    check_time_increases(arrays["t"], ids, source=source)
+    check_time_increases(arrays["t"], ids, source=source, names=names)

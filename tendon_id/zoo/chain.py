@@ -108,7 +108,9 @@ def log_entering(blocks: Sequence[Block], inputs, values: dict, sets: NDArray, t
     key = f"log_in:{sets.tobytes().hex()}:{tendons.tobytes().hex()}"
     undo = sorted((b for b in blocks if b.acts_at("actuator")), key=lambda b: -b.measurement_order)
     if not undo:
-        return inputs.memo(key, lambda: inputs.log_actuator[:, sets][:, :, tendons])
+        # The logarithm of only these sets and tendons: a calibration on terminal labels reads set N
+        # alone, and the whole (T, N, n) logarithm would be half the recording again.
+        return inputs.memo(key, lambda: np.log(inputs.actuator[:, sets][:, :, tendons]))
     state = repr([(b, sorted(values.get(b.name, {}).items())) for b in undo])
     last = inputs.cache.get("actuator_" + key)
     if last is None or last[0] != state:
