@@ -39,8 +39,13 @@ def test_splits_are_by_file_and_strata_cover_every_frame():
     recs = [tendon_passage(s, n=300) for s in range(4)]
     splits, how = file_splits(recs, None, folds=2)
     assert "by file" in how and len(splits) == 2
+    whole = [r.input for r in recs]
     for s in splits:
-        assert set(s.train.trajectory).isdisjoint(s.test.trajectory)  # no file on both sides
+        # no file on both sides: each side is whole files, and together they are every file once
+        test = [k for k, x in enumerate(whole) if np.isin(x, s.test.input).all()]
+        train = [k for k, x in enumerate(whole) if np.isin(x, s.train.input).all()]
+        assert test and train and sorted(test + train) == list(range(len(recs)))
+        assert s.test.n_frames == sum(whole[k].size for k in test)
     with pytest.raises(ConfigError, match="two or more files"):
         file_splits(recs[:1], None, folds=3)
     inputs = PassageInputs.from_recordings(recs)

@@ -54,7 +54,9 @@ class PassageInputs(FrameInputs):
         Sample period [s].
     quantity : str
         ``torque`` or ``tension``.
-    trajectory : ndarray of str, shape (T,)
+    trajectory : ndarray of int, shape (T,)
+        The trajectory of each frame, numbered from 0 over the stacked recordings in order (a
+        code, not the id's text: a string per frame would cost more than the signals at 1 kHz).
     """
 
     frame_fields: ClassVar[tuple[str, ...]] = (
@@ -85,21 +87,21 @@ class PassageInputs(FrameInputs):
         if len(dts) > 1:
             raise ConfigError(f"the recordings have different sample periods: {sorted(dts)} s")
 
-        def stacked(name):
-            parts = [r.signal(name) for r in recs]
-            return None if any(p is None for p in parts) else np.concatenate(parts)
+        def joined(parts):
+            # Each part is already a copy of its recording's column: one recording needs no second copy.
+            return None if any(p is None for p in parts) else parts[0] if len(parts) == 1 else np.concatenate(parts)
 
-        wraps = [r.wrap() for r in recs]
+        reset = joined([r.trajectory_starts for r in recs])
         return cls(
-            input=np.concatenate([r.input for r in recs]),
-            output=np.concatenate([r.output for r in recs]),
-            position=stacked("position"),
-            position_out=stacked("position_out"),
-            wrap=None if any(w is None for w in wraps) else np.concatenate(wraps),
-            reset=np.concatenate([r.trajectory_starts for r in recs]),
+            input=joined([r.input for r in recs]),
+            output=joined([r.output for r in recs]),
+            position=joined([r.signal("position") for r in recs]),
+            position_out=joined([r.signal("position_out") for r in recs]),
+            wrap=joined([r.wrap() for r in recs]),
+            reset=reset,
             dt=recs[0].dt,
             quantity=recs[0].quantity,
-            trajectory=np.concatenate([np.char.add(f"{k}/", r.trajectory_ids) for k, r in enumerate(recs)]),
+            trajectory=np.cumsum(reset, dtype=np.int64) - 1,  # each recording starts a trajectory
         )
 
     def travel(self) -> NDArray:
