@@ -57,19 +57,28 @@ def gap_closed(mse0: float, mse: float, floor: float) -> float:
 
 
 def ljung_box_p(residual: NDArray, lags: int = 10) -> list[float]:
-    """Ljung–Box p-value of each column of ``residual`` (statsmodels; Ljung & Box 1978).
+    """Ljung–Box p-value of each column of ``residual`` (Ljung & Box 1978).
 
-    A small p-value says the residual is not white: something systematic is left.
+    ``Q = n (n + 2) sum_k r_k^2 / (n - k)`` over lags ``k = 1..lags``, against chi^2 with
+    ``lags`` degrees of freedom: a small p-value says the residual is not white, something
+    systematic is left.  The autocorrelations ``r_k`` are statsmodels' ``acf`` by FFT, in
+    O(n log n): ``acorr_ljungbox`` computes them by direct correlation over every lag, O(n^2),
+    which took 400 s on a million frames (same statistic; a test checks the two agree).
     """
-    from statsmodels.stats.diagnostic import acorr_ljungbox
+    from scipy.stats import chi2
+    from statsmodels.tsa.stattools import acf
 
+    k = np.arange(1, lags + 1)
     out = []
     for col in np.atleast_2d(np.asarray(residual, dtype=float).T):
         col = col[np.isfinite(col)]
-        if len(col) <= lags + 1 or np.std(col) == 0:
+        n = len(col)
+        if n <= lags + 1 or np.std(col) == 0:
             out.append(float("nan"))
             continue
-        out.append(float(acorr_ljungbox(col - col.mean(), lags=[lags])["lb_pvalue"].iloc[0]))
+        r = acf(col - col.mean(), nlags=lags, fft=True)[1:]
+        q = n * (n + 2) * float(np.sum(r**2 / (n - k)))
+        out.append(float(chi2.sf(q, lags)))
     return out
 
 
