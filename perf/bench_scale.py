@@ -3,6 +3,7 @@
 Usage: python perf/bench_scale.py [--sizes 1e4 1e5 1e6 3.6e6] [--families snake bench]
        [--steps read fit diagnose identifiability] [--timeout 900] [--max-gb 8]
        [--workdir DIR] [--json FILE]
+       python perf/bench_scale.py --tables RUN.json [RUN.json ...]   (one table of saved runs)
 
 Goals: nothing grows faster than linearly in the frames, and no step's peak memory exceeds
 three times the recording's size in float64 (``frames x numeric columns x 8`` bytes).
@@ -310,12 +311,14 @@ def table(rows: list[dict], exps: dict) -> str:
         )
     lines += [
         "",
-        "| family | step | exponent of wall time | of CPU time | of net peak memory | sizes |",
-        "|" + "---|" * 6,
+        "| family | step | exponent of wall time | of CPU time | of net peak memory | sizes "
+        "| CPU, two largest | memory, two largest |",
+        "|" + "---|" * 8,
     ]
     for (fam, step), e in exps.items():
-        f = [("-" if e[k] is None else f"{e[k]:.2f}") for k in ("seconds", "cpu_s", "net_mb")]
-        lines.append(f"| {fam} | {step} | {f[0]} | {f[1]} | {f[2]} | {e['sizes']} |")
+        keys = ("seconds", "cpu_s", "net_mb", "cpu_s_top", "net_mb_top")
+        f = [("-" if e.get(k) is None else f"{e[k]:.2f}") for k in keys]
+        lines.append(f"| {fam} | {step} | {f[0]} | {f[1]} | {f[2]} | {e['sizes']} | {f[3]} | {f[4]} |")
     return "\n".join(lines)
 
 
@@ -358,11 +361,16 @@ def main(argv=None) -> int:
     ap.add_argument("--max-gb", type=float, default=8.0, help="resident memory one step may reach [GiB]")
     ap.add_argument("--workdir", default=None, help="keep the recordings here (made where missing)")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--tables", nargs="+", metavar="JSON", help="print one table of these saved runs, and stop")
     ap.add_argument("--child", nargs=2, metavar=("STEP", "FAMILY"), help=argparse.SUPPRESS)
     ap.add_argument("rest", nargs="*", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
         child(*args.child, args.rest)
+        return 0
+    if args.tables:  # several runs (a family or a step each) as one table
+        rows = [r for f in args.tables for r in json.loads(Path(f).read_text())["rows"]]
+        print(table(rows, exponents(rows)))
         return 0
     args.sizes = sorted({int(s) for s in args.sizes})
     with tempfile.TemporaryDirectory() as tmp:
@@ -378,11 +386,7 @@ def main(argv=None) -> int:
         imports = run_child("import", "-", [], args.timeout, args.max_gb)
         print(f"import only: {imports.get('base_mb', float('nan')):.0f} MiB resident", flush=True)
         rows = measure(args, data)
-    exps = {}
-    for key in dict.fromkeys((r["family"], r["step"]) for r in rows):
-        sub = [r for r in rows if (r["family"], r["step"]) == key and "stopped" not in r]
-        exps[key] = {k: exponent(sub, k) for k in ("seconds", "cpu_s", "net_mb")}
-        exps[key]["sizes"] = ", ".join(f"{r['frames']:.0e}" for r in sub)
+    exps = exponents(rows)
     text = table(rows, exps)
     print(text)
     if args.json:
@@ -399,6 +403,19 @@ def main(argv=None) -> int:
         }
         write_json_atomic(Path(args.json), out)
     return 0
+
+
+def exponents(rows: list[dict]) -> dict:
+    """Each curve's exponents, keyed by ``(family, step)``."""
+    exps = {}
+    for key in dict.fromkeys((r["family"], r["step"]) for r in rows):
+        sub = [r for r in rows if (r["family"], r["step"]) == key and "stopped" not in r]
+        exps[key] = {k: exponent(sub, k) for k in ("seconds", "cpu_s", "net_mb")}
+        # The fixed cost (imports, start-up) flattens the fit over all sizes; the growth where
+        # the frames dominate is the slope between the two largest sizes measured.
+        exps[key].update({f"{k}_top": exponent(sub[-2:], k) for k in ("cpu_s", "net_mb")})
+        exps[key]["sizes"] = ", ".join(f"{r['frames']:.0e}" for r in sub)
+    return exps
 
 
 if __name__ == "__main__":
