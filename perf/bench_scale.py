@@ -212,7 +212,11 @@ def child(step: str, family: str, argv: list[str]) -> None:
         rc = main(argv)
     seconds, c1 = time.perf_counter() - t0, os.times()
     cpu = (c1.user - c0.user) + (c1.system - c0.system)
-    print(json.dumps({"rc": rc, "seconds": seconds, "cpu_s": cpu, "base_mb": base, "peak_mb": status_mb("VmHWM")}))
+    row = {"rc": rc, "seconds": seconds, "cpu_s": cpu, "base_mb": base, "peak_mb": status_mb("VmHWM")}
+    if step == "fit" and rc == 0:  # the optimiser's evaluations: a time per evaluation, to compare sizes by
+        state = json.loads((Path(argv[argv.index("--out") + 1]) / "model.json").read_text()).get("state", {})
+        row["n_eval"] = (state.get("calibration") or {}).get("n_eval")
+    print(json.dumps(row))
 
 
 def run_child(step: str, family: str, argv: list[str], timeout: float, max_gb: float) -> dict:
