@@ -105,3 +105,16 @@ def test_recordings_report_the_same_first_problem(tmp_path):
         Recording(g, rec.meta)
     p = pd.DataFrame({"trajectory": ["x", "x", "y"], "t": [0.0, 0.1, 0.0], "input": 1.0, "output": 1.0})
     assert list(PassageRecording(p).trajectory_starts) == [True, False, True]
+
+
+def test_a_recording_too_large_for_memory_is_a_recording_error(tmp_path, monkeypatch):
+    import tendon_id.data.io as io
+
+    path = make_recording(trajectories=("a",), frames=20).write(tmp_path / "r.parquet")
+
+    def no_memory(path, schema):
+        raise MemoryError
+
+    monkeypatch.setattr(io, "read_columns", no_memory)
+    with pytest.raises(RecordingError, match=r"r\.parquet.*20 rows of \d+ columns do not fit in memory"):
+        read_parquet(path)

@@ -178,6 +178,9 @@ def read_parquet(path: Path) -> tuple[pd.DataFrame, dict[str, Any] | None]:
         frame = read_columns(path, schema)
     except (pa.ArrowException, OSError) as exc:
         raise RecordingError(f"not a readable Parquet file ({first_line(exc)})", file=src) from exc
+    except MemoryError as exc:  # a footer's row count is what the arrays are sized by
+        rows = pq.ParquetFile(path).metadata.num_rows
+        raise RecordingError(f"{rows} rows of {len(schema.names)} columns do not fit in memory", file=src) from exc
     raw = (schema.metadata or {}).get(META_KEY)
     meta = None
     if raw is not None:
