@@ -172,12 +172,20 @@ def make_bench(folder: Path, sizes) -> str:
 
 
 # ---- one step in a fresh process ------------------------------------------------------------------
-def status_mb(key: str) -> float:
-    """``VmRSS`` or ``VmHWM`` of this process [MiB]."""
-    for line in Path("/proc/self/status").read_text().splitlines():
+def status_mb(key: str, pid: int | str = "self") -> float:
+    """``VmRSS`` or ``VmHWM`` of a process [MiB], this one by default (Linux's ``/proc``).
+
+    Raises
+    ------
+    OSError
+        Where the process is gone, or the system has no ``/proc`` (the benchmark needs Linux).
+    KeyError
+        Where the status has no such line.
+    """
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         if line.startswith(key + ":"):
             return int(line.split()[1]) / 1024.0
-    return float("nan")
+    raise KeyError(f"/proc/{pid}/status has no {key}")
 
 
 def child(step: str, family: str, argv: list[str]) -> None:
@@ -233,7 +241,10 @@ def run_child(step: str, family: str, argv: list[str], timeout: float, max_gb: f
                 rusage = ru
                 proc.returncode = os.waitstatus_to_exitcode(status)
                 break
-            rss = _rss_mb(proc.pid)
+            try:
+                rss = status_mb("VmRSS", proc.pid)
+            except (OSError, KeyError):  # it has just exited (gone, or a zombie without memory): wait4 reaps it next
+                rss = 0.0
             if time.perf_counter() - t0 > timeout:
                 stopped = f"timeout {timeout:.0f} s"
             elif rss > max_gb * 1024:
@@ -252,16 +263,6 @@ def run_child(step: str, family: str, argv: list[str], timeout: float, max_gb: f
     if got["rc"] != 0:
         return {**res, "stopped": f"exit {got['rc']}: {tail.strip().splitlines()[-1:]}"}
     return {**res, **got, "net_mb": got["peak_mb"] - got["base_mb"]}
-
-
-def _rss_mb(pid: int) -> float:
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return 0.0
 
 
 def step_argv(step: str, family: str, n: int, data: Path, out: Path) -> list[str] | None:
@@ -388,7 +389,9 @@ def main(argv=None) -> int:
                 made[family] = f"{make(data, missing)} ({time.perf_counter() - t0:.0f} s)"
                 print(f"{family}: {made[family]}", flush=True)
         imports = run_child("import", "-", [], args.timeout, args.max_gb)
-        print(f"import only: {imports.get('base_mb', float('nan')):.0f} MiB resident", flush=True)
+        if "stopped" in imports:  # nothing to measure against: say why and stop
+            raise SystemExit(f"importing the toolkit failed in a fresh process: {imports['stopped']}")
+        print(f"import only: {imports['base_mb']:.0f} MiB resident", flush=True)
         rows = measure(args, data)
     exps = exponents(rows)
     text = table(rows, exps)
