@@ -55,7 +55,9 @@ def maxwell_slip_output(
     width: float,
     elements: int = ELEMENTS,
     sliding: NDArray | None = None,
-) -> tuple[NDArray[np.float64], NDArray[np.int8]]:
+    y0: NDArray | None = None,
+    with_state: bool = False,
+):
     """The smooth-edged output and its slip state, without checks: the inner loop of a simulation or a fit.
 
     Parameters
@@ -73,28 +75,33 @@ def maxwell_slip_output(
         +1 where the tendon slides forward through the guide, -1 backward, 0 otherwise: a
         sliding contact puts every element on the edge of its direction of motion (the
         ``"motion"`` driver of the simulator).
+    y0 : ndarray, shape (..., K), optional
+        The elements' outputs before frame 0 (a previous call's ``state``), read where
+        ``reset[0]`` is False: a long log evaluated in windows continues exactly.
+    with_state : bool
+        Also return the elements' outputs at the last frame.
 
     Returns
     -------
-    (y, sigma)
+    (y, sigma) or (y, sigma, state)
         ``y`` within ``[lo, hi]``; ``sigma`` +1 (-1) where more than half the elements slip
-        forward (backward), else 0 (the contact mostly sticks).
+        forward (backward), else 0 (the contact mostly sticks); ``state``, shape (..., K).
     """
     c = 0.5 * (lo + hi)[..., None]
     hk = 0.5 * (hi - lo)[..., None] * element_factors(width, elements)
     lo_k, hi_k = c - hk, c + hk
     if sliding is None:
-        y_k = play_output(lo_k, hi_k, reset)
+        y_k = play_output(lo_k, hi_k, reset, y0)
     else:
         s = np.asarray(sliding)[..., None]
-        y_k = play_output(np.where(s < 0, hi_k, lo_k), np.where(s > 0, lo_k, hi_k), reset)
+        y_k = play_output(np.where(s < 0, hi_k, lo_k), np.where(s > 0, lo_k, hi_k), reset, y0)
     # The mean of elements on their edges is the band's edge up to rounding: clip it into the band.
     y = np.clip(y_k.mean(axis=-1), lo, hi)
     half = elements / 2.0
     forward = np.count_nonzero(y_k <= lo_k, axis=-1) > half
     backward = np.count_nonzero(y_k >= hi_k, axis=-1) > half
     sigma = forward.astype(np.int8) - backward.astype(np.int8)
-    return y, sigma
+    return (y, sigma, y_k[-1].copy()) if with_state else (y, sigma)
 
 
 def maxwell_slip(

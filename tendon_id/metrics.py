@@ -61,7 +61,12 @@ def jacobian_correlation(jac) -> NDArray | None:
     ``jac``, shape (residuals, parameters), dense or sparse).
     """
     J = jac.toarray() if hasattr(jac, "toarray") else np.asarray(jac)
-    M = J.T @ J
+    return gram_correlation(J.T @ J)
+
+
+def gram_correlation(M) -> NDArray | None:
+    """:func:`jacobian_correlation` from the Gram matrix ``J^T J`` (summed over windows of a long log)."""
+    M = np.asarray(M, dtype=float)
     try:
         cov = np.linalg.inv(M)
     except np.linalg.LinAlgError:

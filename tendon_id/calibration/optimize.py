@@ -72,6 +72,7 @@ def minimize(
     ftol_rel: float = 1e-14,
     maxeval: int = 1000,
     initial_step: NDArray | None = None,
+    fun_grad: Callable[[NDArray], tuple[float, NDArray]] | None = None,
 ) -> Outcome:
     """Minimise ``fun`` under ``lb <= x <= ub`` and ``ineq(x) <= 0`` with nlopt.
 
@@ -99,6 +100,9 @@ def minimize(
         Maps a slightly infeasible point onto the feasible set.
     xtol_rel, ftol_rel, maxeval :
         Stopping rules.
+    fun_grad : callable, optional
+        ``x -> (fun(x), grad(x))`` in one pass, where nlopt asks for both (with ``grad``, which
+        it then replaces there): one evaluation of what they share instead of two.
     initial_step : ndarray, optional
         COBYLA's first step per parameter (its trust region only shrinks from there); default a
         tenth of each parameter's size, at least a thousandth of its bounds' width.
@@ -128,10 +132,15 @@ def minimize(
 
     def objective(x, g):
         x = np.asarray(x, dtype=float)
-        f = float(fun(x))
         best["n"] += 1
-        if g.size > 0:
-            g[:] = np.asarray(grad(x), dtype=float)
+        if g.size > 0 and fun_grad is not None:
+            f, gx = fun_grad(x)
+            f = float(f)
+            g[:] = np.asarray(gx, dtype=float)
+        else:
+            f = float(fun(x))
+            if g.size > 0:
+                g[:] = np.asarray(grad(x), dtype=float)
         if np.isfinite(f) and f < best["f"] and feasible(x):
             best["x"], best["f"] = x.copy(), f
         return f if np.isfinite(f) else float(np.finfo(float).max)

@@ -97,6 +97,17 @@ class FrameRecording(abc.ABC):
         # From codes: a str per frame would be a Python object per frame.
         return rules.trajectory_starts(pd.factorize(self._frame["trajectory"])[0])
 
+    def column_view(self, column: str) -> np.ndarray | None:
+        """A numeric column as a read-only float64 array [SI], a view where it is float64, or None.
+
+        For a model's inputs, which only read: an hour of 1 kHz data is not copied a second time.
+        """
+        if column not in self._frame.columns:
+            return None
+        v = float_column(self._frame, column).view()
+        v.flags.writeable = False
+        return v
+
     def signal(self, column: str) -> np.ndarray | None:
         """A numeric column as float64 [SI], or None where the recording has no such column."""
         return float_column(self._frame, column).copy() if column in self._frame.columns else None

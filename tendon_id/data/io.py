@@ -244,6 +244,9 @@ def read_columns(path: Path, schema) -> pd.DataFrame:
                     others[c].extend(col.chunks)
         start += rows
     columns = {c: floats[c] if c in floats else _pandas_column(others[c], schema.field(c).type) for c in names}
+    del others
+    # Arrow's allocator (mimalloc) keeps freed row groups for reuse; nothing else is read now.
+    pa.default_memory_pool().release_unused()
     return pd.DataFrame(columns, columns=names, copy=False)
 
 

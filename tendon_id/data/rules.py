@@ -34,6 +34,10 @@ __all__ = [
 ]
 
 
+#: Frames a per-frame check looks at at once (bounded temporaries on hour-long logs).
+CHECK_SLICE = 1 << 18
+
+
 def first_true(mask: np.ndarray) -> int | None:
     if mask.size and mask.any():
         return int(mask.argmax())
@@ -46,15 +50,20 @@ def _short(value: Any, width: int = 40) -> str:
 
 
 def first_hit(arrays: Mapping[str, np.ndarray], test: Callable[[np.ndarray], np.ndarray]) -> tuple[str, int] | None:
-    """Earliest row where ``test`` holds, then the first such column in the mapping's order."""
-    best: tuple[str, int] | None = None
-    for c, a in arrays.items():
-        row = first_true(test(a))
-        if row is not None and (best is None or row < best[1]):
-            best = (c, row)
-            if row == 0:
-                break
-    return best
+    """Earliest row where ``test`` holds, then the first such column in the mapping's order.
+
+    ``test`` sees :data:`CHECK_SLICE` rows at a time, so its temporaries stay small on long logs.
+    """
+    n = max((len(a) for a in arrays.values()), default=0)
+    for a0 in range(0, n, CHECK_SLICE):
+        best: tuple[str, int] | None = None
+        for c, a in arrays.items():
+            row = first_true(test(a[a0 : a0 + CHECK_SLICE]))
+            if row is not None and (best is None or a0 + row < best[1]):
+                best = (c, a0 + row)
+        if best is not None:
+            return best
+    return None
 
 
 def trajectory_starts(ids: np.ndarray) -> np.ndarray:
@@ -232,9 +241,14 @@ def check_time_increases(
         The ids, where ``ids`` are the codes of :func:`trajectory_codes`.
     """
     starts = trajectory_starts(ids)
-    bad = np.zeros(len(t), dtype=bool)
-    bad[1:] = (np.diff(t) <= 0) & ~starts[1:]
-    row = first_true(bad)
+    row = None
+    # In slices: whole-length temporaries would be a tenth of a 12-module recording each.
+    for a in range(1, len(t), CHECK_SLICE):
+        b = min(a + CHECK_SLICE, len(t))
+        hit = first_true((t[a:b] <= t[a - 1 : b - 1]) & ~starts[a:b])
+        if hit is not None:
+            row = a + hit
+            break
     if row is not None:
         raise RecordingError(
             f"time does not increase within trajectory '{_named(ids, names, row)}' "

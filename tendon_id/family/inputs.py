@@ -17,7 +17,29 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FrameInputs"]
+__all__ = ["FrameInputs", "WindowCache"]
+
+
+class WindowCache(dict):
+    """The derived arrays of a window of frames: the whole inputs' arrays, sliced.
+
+    A derived array may look back (a speed over the last frames) or ahead (a trajectory's first
+    motion), so a window cannot compute its own: whatever it reads must have been computed on
+    the whole inputs first, and asking for anything else is a programming error, not a result.
+    """
+
+    def __init__(self, whole: dict, start: int, stop: int, n_frames: int):
+        super().__init__()
+        for key, value in whole.items():
+            per_frame = isinstance(value, np.ndarray) and value.ndim and value.shape[0] == n_frames
+            self[key] = value[start:stop] if per_frame else value
+        self.bounds = (start, stop)
+
+    def compute(self, key: str):
+        raise RuntimeError(
+            f"the derived array {key!r} was not computed on the whole inputs before frames "
+            f"{self.bounds[0]}-{self.bounds[1]} were read as a window"
+        )
 
 
 class FrameInputs:
@@ -43,6 +65,8 @@ class FrameInputs:
     def memo(self, key: str, compute):
         """``compute()`` once per key: derived arrays read on every evaluation of a model (wraps, speeds)."""
         if key not in self.cache:
+            if isinstance(self.cache, WindowCache):
+                self.cache.compute(key)
             self.cache[key] = compute()
         return self.cache[key]
 
@@ -74,6 +98,20 @@ class FrameInputs:
         if cut["reset"].size:
             cut["reset"][0] = True
         return dataclasses.replace(self, **cut)
+
+    def window(self, start: int, stop: int):
+        """Frames ``start`` to ``stop - 1`` as inputs of views, without copies.
+
+        Its derived arrays are the whole inputs' (:class:`WindowCache`): compute them on the whole
+        first; frame indices in them (``first_frame``) stay the whole's. ``reset[start]`` is as
+        it is: a window that starts inside a trajectory continues it, and what carries over (a
+        play operator's output) is the caller's to pass on. The streamed evaluation of a passage
+        model (:mod:`tendon_id.zoo.passage.model`) reads so.
+        """
+        cut = {f: None if getattr(self, f) is None else getattr(self, f)[start:stop] for f in self.frame_fields}
+        out = dataclasses.replace(self, **cut)
+        object.__setattr__(out, "cache", WindowCache(self.cache, start, stop, self.n_frames))
+        return out
 
     @classmethod
     def concat(cls, parts: Sequence[FrameInputs]):

@@ -141,3 +141,23 @@ def test_guide_wear_round_trips_and_localises(tmp_path):
     again = load(tmp_path / "m")
     assert again.block_objects == fitted.block_objects
     np.testing.assert_array_equal(again.predict_terminal(rec), fitted.predict_terminal(rec))
+
+
+@pytest.mark.parametrize(
+    "spec, ok",
+    [
+        ({"block": "routing", "alpha_0": None}, False),  # routing has no robot's value to fall back on
+        ({"block": "routing", "alpha_0": "0.1"}, False),
+        ({"block": "contact", "alpha_c": None}, True),  # None: the robot's clearance angle
+    ],
+)
+def test_a_block_file_value_is_a_number_or_a_documented_null(spec, ok):
+    """Found by the 10 000-example model-file fuzz: a null routing wrap loaded, then failed in predict."""
+    from tendon_id.errors import ConfigError
+    from tendon_id.zoo.blocks import block_from_dict
+
+    if ok:
+        assert block_from_dict(spec).initial()
+    else:
+        with pytest.raises(ConfigError, match="must be a finite number"):
+            block_from_dict(spec)

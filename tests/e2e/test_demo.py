@@ -43,6 +43,12 @@ def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypa
 
     real_step = table3.step_test
     monkeypatch.setattr(table3, "step_test", lambda *a: dataclasses.replace(real_step(*a), hold_s=3.0, lead_s=0.5))
+    # and the identifiability study at the sampler sizes of its own tests (the defaults take a minute)
+    import tendon_id.identifiability as identifiability
+
+    real_analyse = identifiability.analyse
+    small = identifiability.StudySettings(n_chains=32, n_steps=300, thin=10, band_frames=400)
+    monkeypatch.setattr(identifiability, "analyse", lambda rec, **kw: real_analyse(rec, small, **kw))
     code = main(["demo", "--out", str(tmp_path / "out"), "--frames", "400"])
     assert code == 0, capsys.readouterr().err
     page = (tmp_path / "out" / "summary.html").read_text()

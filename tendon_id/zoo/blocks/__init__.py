@@ -8,6 +8,7 @@ registers itself in the snake chain's registry :data:`BLOCKS`: by name
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from tendon_id.checks import check_choice
@@ -62,8 +63,11 @@ def block_from_dict(d: dict) -> Block:
         block = from_dict(d) if from_dict is not None else cls(**d)
     except TypeError as exc:
         raise ConfigError(f"block {name!r}: {exc}") from None
+    defaults = {f.name: f.default for f in dataclasses.fields(block)} if dataclasses.is_dataclass(block) else {}
     for p in block.param_names:  # a hand-edited file's value: a finite number, or None (the robot's value)
         v = getattr(block, p, None)
+        if v is None and defaults.get(p, None) is not None:  # only a block whose default is None reads None
+            raise ConfigError(f"block {name!r}: {p} must be a finite number, got None", param="blocks")
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)):
             raise ConfigError(f"block {name!r}: {p} must be a finite number, got {v!r}", param="blocks")
     return block

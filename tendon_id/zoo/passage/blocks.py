@@ -65,6 +65,12 @@ class PassageBlock(EffectBlock):
     stage: ClassVar[str] = "load"
     param_names: ClassVar[tuple[str, ...]] = ()
     units: ClassVar[dict[str, str]] = {}
+    #: Whether the block reads each frame from that frame and the state carried to it, so that a
+    #: model with it can be evaluated in windows of frames (a block that reads later frames cannot).
+    streams: ClassVar[bool] = True
+
+    def derive(self, inputs) -> None:
+        """Compute, on the whole inputs, the derived arrays the block reads (before windows read them)."""
 
     def to_dict(self) -> dict:
         """What the diagnosis reports of the block: its effect."""
@@ -206,8 +212,10 @@ class CableElasticity(PassageBlock):
         return self.probe(scale)
 
 
-def elastic_state(forward: NDArray, reverse: NDArray, travel: NDArray, compliance: float, reset, start) -> NDArray:
-    """The predicted side [Q] of :class:`CableElasticity`, shape (T,).
+def elastic_state(
+    forward: NDArray, reverse: NDArray, travel: NDArray, compliance: float, reset, start, z0: float | None = None
+) -> tuple[NDArray, float]:
+    """The predicted side [Q] of :class:`CableElasticity`, shape (T,), and its state at the last frame.
 
     Parameters
     ----------
@@ -221,6 +229,13 @@ def elastic_state(forward: NDArray, reverse: NDArray, travel: NDArray, complianc
         Trajectory starts.
     start : ndarray, shape (T,)
         The edge each frame's log starts on: +1 forward, -1 reverse.
+    z0 : float, optional
+        The state before frame 0 (a previous call's), read where ``reset[0]`` is False.
+
+    Returns
+    -------
+    (y, z)
+        The predicted side [Q], and the play operator's output ``z = w - e`` at the last frame [Q].
     """
     centre = 0.5 * (forward + reverse)
     half = 0.5 * np.abs(reverse - forward)
@@ -228,9 +243,10 @@ def elastic_state(forward: NDArray, reverse: NDArray, travel: NDArray, complianc
     # z = w - e; a log starts with e = start * h (on its first motion's edge).
     lo = np.where(reset, w - start * half, w - half)
     hi = np.where(reset, w - start * half, w + half)
-    e = w - play_output(lo, hi, reset)
+    z = play_output(lo, hi, reset, z0)
+    e = w - z
     # e / h times (forward - centre), written so that a band of zero width gives the centre.
-    return centre + e * np.sign(forward - reverse)
+    return centre + e * np.sign(forward - reverse), float(z[-1])
 
 
 @dataclass(frozen=True)
@@ -287,6 +303,9 @@ class VelocityFriction(PassageBlock):
     def probe(self, scale):
         return {"c": 0.1 * scale["signal"] / max(scale["speed"], 1e-9)}
 
+    def derive(self, inputs):
+        inputs.speed()
+
     def load(self, inputs, values):
         return -values["c"] * inputs.speed()
 
@@ -313,6 +332,9 @@ class LoadCoulomb(PassageBlock):
 
     def probe(self, scale):
         return {"f": 0.05 * scale["signal"]}
+
+    def derive(self, inputs):
+        inputs.slip_state(scale_band(inputs))
 
     def load(self, inputs, values):
         return -values["f"] * inputs.slip_state(scale_band(inputs))

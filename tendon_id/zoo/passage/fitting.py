@@ -17,6 +17,13 @@ motion (the input carries the friction's swing at every reversal, an error in th
 that would bias a regression the other way towards zero gain), with the capstan exponent spread
 over its range: the gain and the exponent of a taut pair trade off along a ridge
 (:mod:`friction_models.passage`), and the best start is kept.
+
+An hour's log at 1 kHz is 3.6·10^6 frames, and a Jacobian of them per gradient would be
+several times the recording. Nothing here holds one: the model is read in windows of frames
+(:meth:`~tendon_id.zoo.passage.model.PassageCapstan.reading_windows`, its play state carried
+between them), the ``P + 1`` readings of a forward-difference Jacobian go through the windows
+together, and only the sums ``r^T r``, ``J^T r`` and ``J^T J`` are kept (``P`` numbers and a
+``P x P`` matrix). The starts' regression sums its normal equations over the same windows.
 """
 
 from __future__ import annotations
@@ -29,8 +36,9 @@ from numpy.typing import NDArray
 from tendon_id.calibration.optimize import minimize
 from tendon_id.errors import ConfigError
 from tendon_id.family.fit import Fit
-from tendon_id.metrics import jacobian_correlation
+from tendon_id.metrics import gram_correlation
 from tendon_id.zoo.passage.blocks import scale_band
+from tendon_id.zoo.passage.inputs import WINDOW_FRAMES
 
 #: Relative forward-difference step of the Jacobian (the model is in float64; the play
 #: operator's edges are smooth in the parameters between reversals).
@@ -64,7 +72,7 @@ def data_scales(inputs) -> dict[str, float]:
         "input": float(np.max(np.abs(inputs.input))) or 1.0,
         "travel": float(np.ptp(travel)) or 1.0,
         "angle": float(np.max(np.abs(angle))) or 1.0,
-        "speed": float(np.quantile(np.abs(inputs.speed()), 0.95)) or 1.0,
+        "speed": float(np.quantile(np.abs(inputs.speed(keep=False)), 0.95)) or 1.0,
         "dt": float(inputs.dt),
     }
 
@@ -94,16 +102,28 @@ def parameter_box(model, inputs) -> tuple[list[str], NDArray, NDArray]:
 
 
 def regression_start(inputs, phi: float) -> dict[str, float]:
-    """Law parameters at capstan exponent ``phi``, from a regression of the input on the output and the direction."""
-    u, y = inputs.input, inputs.output
-    d = inputs.direction(scale_band(inputs))
-    if inputs.quantity == "tension":
-        ratio = np.log(np.maximum(y, 1e-12)) - np.log(np.maximum(u, 1e-12))
-        X = np.column_stack([np.ones_like(u), d])
-        (lnk, slope), *_ = np.linalg.lstsq(X, ratio, rcond=None)
+    """Law parameters at capstan exponent ``phi``, from a regression of the input on the output and the direction.
+
+    The least squares are solved from their normal equations, summed over windows of frames.
+    """
+    d_all = inputs.direction(scale_band(inputs))
+    tension = inputs.quantity == "tension"
+    k = 2 if tension else 3
+    XtX, Xtb = np.zeros((k, k)), np.zeros(k)
+    for a in range(0, inputs.n_frames, WINDOW_FRAMES):
+        u, y, d = (v[a : a + WINDOW_FRAMES] for v in (inputs.input, inputs.output, d_all))
+        if tension:
+            X = np.column_stack([np.ones_like(u), d])
+            b = np.log(np.maximum(y, 1e-12)) - np.log(np.maximum(u, 1e-12))
+        else:
+            X, b = np.column_stack([y, d, np.ones_like(y)]), u
+        XtX += X.T @ X
+        Xtb += X.T @ b
+    coef = np.linalg.lstsq(XtX, Xtb, rcond=None)[0]
+    if tension:
+        lnk, slope = coef
         return {"gain": float(np.exp(lnk)), "phi": max(float(-slope), 0.0), "offset": 0.0}
-    X = np.column_stack([y, d, np.ones_like(y)])
-    (alpha, beta, gamma), *_ = np.linalg.lstsq(X, u, rcond=None)
+    alpha, beta, gamma = coef
     a = 1.0 / alpha if alpha > 0 else 1.0  # y = a u - b d + c
     gain = a / np.cosh(phi)
     return {
@@ -142,21 +162,19 @@ def calibrate_passage(model, inputs, start: dict | None = None) -> Fit:
     keep = inputs.since_start >= float(model.warmup_s)
     if not keep.any():
         raise ConfigError(f"warmup_s = {model.warmup_s} s leaves no frame to fit on; lower it")
-    target = (inputs.output if model.direction == "forward" else inputs.input)[keep]
+    target = inputs.output if model.direction == "forward" else inputs.input
     labels, lo, hi = parameter_box(model, inputs)
     n_eval = 0
 
-    last: dict = {}
-
-    def residual(x):
-        # nlopt asks for the objective and then the gradient at the same point: evaluate it once.
+    def residuals(x):
+        """The residual after the warm-up [Q], window by window."""
         nonlocal n_eval
-        key = x.tobytes()
-        if key not in last:
-            n_eval += 1
-            last.clear()
-            last[key] = model.reading(inputs, dict(zip(labels, x.tolist())))[keep] - target
-        return last[key]
+        n_eval += 1
+        for a, b, y in model.reading_windows(inputs, dict(zip(labels, x.tolist()))):
+            yield (y - target[a:b])[keep[a:b]]
+
+    def sse(x):
+        return sum(float(r @ r) for r in residuals(x))
 
     scales = data_scales(inputs)
     neutral = {f"{b.effect}:{p}": v for b in model.block_objects for p, v in b.initial(scales).items()}
@@ -173,18 +191,19 @@ def calibrate_passage(model, inputs, start: dict | None = None) -> Fit:
         x0 = np.clip([s.get(k, 0.5 * (a + b)) for k, a, b in zip(labels, lo, hi)], lo + inset, hi - inset)
         # nlopt's SLSQP does not scale the parameters: it works on x d, with d the norms of the
         # Jacobian's columns at the start (Moré 1978's scaling, scipy's x_scale="jac").
-        d = np.maximum(np.linalg.norm(jacobian(residual, x0, lo, hi)[0], axis=0), 1e-12)
+        d = np.maximum(np.sqrt(np.diag(jacobian_sums(residuals, x0, lo, hi)[2])), 1e-12)
 
-        def gradient(u, d=d):
-            J, r = jacobian(residual, u / d, lo, hi)
-            return 2.0 * (J / d).T @ r
+        def value_and_gradient(u, d=d):
+            f, Jtr, _ = jacobian_sums(residuals, u / d, lo, hi)
+            return f, 2.0 * Jtr / d
 
         out = minimize(
-            lambda u: float(np.sum(residual(u / d) ** 2)),
+            lambda u, d=d: sse(u / d),
             x0 * d,
             lb=lo * d,
             ub=hi * d,
-            grad=gradient,
+            grad=lambda u, vg=value_and_gradient: vg(u)[1],
+            fun_grad=value_and_gradient,
             xtol_rel=XTOL_REL,
             ftol_rel=FTOL_REL,
             maxeval=int(model.maxeval),
@@ -203,7 +222,7 @@ def calibrate_passage(model, inputs, start: dict | None = None) -> Fit:
         x=best.x,
         lower=lo,
         upper=hi,
-        corr=jacobian_correlation(jacobian(residual, best.x, lo, hi)[0]),
+        corr=gram_correlation(jacobian_sums(residuals, best.x, lo, hi)[2]),
         n_eval=n_fit,
         seconds=time.perf_counter() - t0,
         status=best.status,
@@ -211,23 +230,24 @@ def calibrate_passage(model, inputs, start: dict | None = None) -> Fit:
     )
 
 
-def jacobian(residual, x: NDArray, lo: NDArray, hi: NDArray) -> tuple[NDArray, NDArray]:
-    """Forward-difference Jacobian of ``residual`` at ``x``, shape (n_obs, P), and the residual there.
+def jacobian_sums(residuals, x: NDArray, lo: NDArray, hi: NDArray) -> tuple[float, NDArray, NDArray]:
+    """``r^T r``, ``J^T r`` and ``J^T J`` at ``x``, of the forward-difference Jacobian ``J`` of ``residuals``.
 
-    Steps stay inside ``[lo, hi]``.
-
-    The step of parameter ``k`` is ``FD_STEP * max(|x_k|, 1e-3 (hi_k - lo_k))``, taken backwards
-    where a forward step would leave the box.
+    ``residuals(x)`` yields the residual window by window; the ``P + 1`` evaluations go through
+    the windows together, so no array of the log's length is held. Steps stay inside
+    ``[lo, hi]``: the step of parameter ``k`` is ``FD_STEP * max(|x_k|, 1e-3 (hi_k - lo_k))``,
+    taken backwards where a forward step would leave the box.
     """
-    r0 = residual(x).copy()
     h = FD_STEP * np.maximum(np.abs(x), 1e-3 * (hi - lo))
     h = np.where(x + h > hi, -h, h)
-    J = np.empty((r0.size, x.size))
-    for k in range(x.size):
-        step = x.copy()
-        step[k] += h[k]
-        J[:, k] = (residual(step) - r0) / h[k]
-    return J, r0
+    steps = [x] + [x + h[k] * np.eye(x.size)[k] for k in range(x.size)]
+    rr, Jtr, JtJ = 0.0, np.zeros(x.size), np.zeros((x.size, x.size))
+    for r0, *shifted in zip(*(residuals(p) for p in steps)):
+        J = np.column_stack([(r - r0) / hk for r, hk in zip(shifted, h)]) if shifted else np.empty((r0.size, 0))
+        rr += float(r0 @ r0)
+        Jtr += J.T @ r0
+        JtJ += J.T @ J
+    return rr, Jtr, JtJ
 
 
 def confounded_groups(labels: list[str], corr: NDArray | None, threshold: float = 0.99) -> list[list[str]]:

@@ -18,6 +18,9 @@ from tendon_id.family.inputs import FrameInputs
 #: Window of the backward difference that gives the input speed [s] (an encoder count per
 #: frame is too coarse at 1 kHz; 20 ms averages it while lagging the motion by 10 ms).
 SPEED_WINDOW_S = 0.02
+#: Frames of one window of a streamed evaluation (:meth:`FrameInputs.window`): its temporaries are
+#: a few MB whatever the log's length, and 2^16 frames amortise numpy's per-call cost.
+WINDOW_FRAMES = 1 << 16
 
 
 def as_passages(data: PassageRecording | Sequence[PassageRecording]) -> list[PassageRecording]:
@@ -88,20 +91,22 @@ class PassageInputs(FrameInputs):
             raise ConfigError(f"the recordings have different sample periods: {sorted(dts)} s")
 
         def joined(parts):
-            # Each part is already a copy of its recording's column: one recording needs no second copy.
+            # One recording's arrays are its own (views); several are joined into one copy.
             return None if any(p is None for p in parts) else parts[0] if len(parts) == 1 else np.concatenate(parts)
 
         reset = joined([r.trajectory_starts for r in recs])
+        # Read-only views of one recording's columns (the arrays are never written to).
         return cls(
-            input=joined([r.input for r in recs]),
-            output=joined([r.output for r in recs]),
-            position=joined([r.signal("position") for r in recs]),
-            position_out=joined([r.signal("position_out") for r in recs]),
+            input=joined([r.column_view("input") for r in recs]),
+            output=joined([r.column_view("output") for r in recs]),
+            position=joined([r.column_view("position") for r in recs]),
+            position_out=joined([r.column_view("position_out") for r in recs]),
             wrap=joined([r.wrap() for r in recs]),
             reset=reset,
             dt=recs[0].dt,
             quantity=recs[0].quantity,
-            trajectory=np.cumsum(reset, dtype=np.int64) - 1,  # each recording starts a trajectory
+            # int32: 2^31 trajectories is beyond any log, and a code per frame is kept for the fit.
+            trajectory=np.cumsum(reset, dtype=np.int32) - 1,  # each recording starts a trajectory
         )
 
     def travel(self) -> NDArray:
@@ -109,7 +114,7 @@ class PassageInputs(FrameInputs):
         return self.position if self.position is not None else self.input
 
     def direction(self, band: float) -> NDArray:
-        """Direction of motion of the input, +1 or -1, held through pauses, shape (T,).
+        """Direction of motion of the input, +1 or -1, held through pauses, int8, shape (T,).
 
         A play operator of half-width ``band`` on the travel: the direction changes once the
         travel has gone ``band`` back from its last turning point, so an encoder count that
@@ -119,12 +124,12 @@ class PassageInputs(FrameInputs):
         def compute():
             x = self.travel()
             follower = play_operator(x, band, self.reset).log_out
-            return np.where(x - follower >= 0, 1.0, -1.0)
+            return np.where(x - follower >= 0, 1, -1).astype(np.int8)
 
         return self.memo(f"direction:{band!r}", compute)
 
     def slip_state(self, band: float) -> NDArray:
-        """The slip state of the paper's Eq. (6), memoryless: +1, -1, or 0 (stick), shape (T,).
+        """The slip state of the paper's Eq. (6), memoryless: +1, -1, or 0 (stick), int8, shape (T,).
 
         The sign of the travel's change over the last SPEED_WINDOW_S where it exceeds ``band``,
         else 0: a model without a holding state knows only whether the input moves now.
@@ -133,12 +138,13 @@ class PassageInputs(FrameInputs):
         def compute():
             x = self.travel()
             moved = x - x[self._back()]
-            return np.where(np.abs(moved) > band, np.sign(moved), 0.0)
+            # int8: a state per frame is kept for every evaluation of a fit (a byte, not eight, at 1 kHz).
+            return np.where(np.abs(moved) > band, np.sign(moved), 0.0).astype(np.int8)
 
         return self.memo(f"slip:{band!r}", compute)
 
     def first_motion(self, band: float) -> NDArray:
-        """Each frame's trajectory's first slip state other than stick (+1 where it never moves), shape (T,).
+        """Each frame's trajectory's first slip state other than stick (+1 where it never moves), int8, shape (T,).
 
         Where a log starts, the friction state is unknown; the first motion tells which edge
         the passage is on, as :meth:`direction` (which starts forward) cannot.
@@ -151,7 +157,7 @@ class PassageInputs(FrameInputs):
             starts = np.flatnonzero(self.reset)
             at = np.searchsorted(moving, starts)
             idx = moving[np.minimum(at, max(moving.size - 1, 0))] if moving.size else starts
-            first_sigma = np.where((at < moving.size) & (first[idx] == starts), sigma[idx], 1.0)
+            first_sigma = np.where((at < moving.size) & (first[idx] == starts), sigma[idx], 1).astype(np.int8)
             return first_sigma[np.searchsorted(starts, first, side="left")]
 
         return self.memo(f"first_motion:{band!r}", compute)
@@ -161,8 +167,11 @@ class PassageInputs(FrameInputs):
         n = max(int(round(SPEED_WINDOW_S / self.dt)), 1)
         return np.maximum(np.arange(self.n_frames) - n, self.first_frame)
 
-    def speed(self) -> NDArray:
-        """Input speed [rad/s] (or the input signal's rate), a backward difference over SPEED_WINDOW_S."""
+    def speed(self, keep: bool = True) -> NDArray:
+        """Input speed [rad/s] (or the input signal's rate), a backward difference over SPEED_WINDOW_S.
+
+        ``keep=False`` computes it without keeping it, where it is read once (a data scale).
+        """
 
         def compute():
             x = self.travel()
@@ -172,4 +181,4 @@ class PassageInputs(FrameInputs):
             span = np.maximum(idx - back, 1) * self.dt
             return (x - x[back]) / span
 
-        return self.memo("speed", compute)
+        return self.memo("speed", compute) if keep or "speed" in self.cache else compute()

@@ -34,7 +34,7 @@ from tendon_id.metrics import tendon_metrics
 from tendon_id.zoo.estimator import Estimator
 from tendon_id.zoo.passage.blocks import PASSAGE_BLOCKS, PassageBlock, elastic_state, make_block, scale_band
 from tendon_id.zoo.passage.fitting import calibrate_passage, calibration_record
-from tendon_id.zoo.passage.inputs import PassageInputs
+from tendon_id.zoo.passage.inputs import WINDOW_FRAMES, PassageInputs
 
 DIRECTIONS = ("forward", "inverse")
 #: The capstan law's parameters per quantity: [unit] (``Q``: the passage's quantity, N or N m).
@@ -203,7 +203,54 @@ class PassageCapstan(PassageModel):
         operators of spread widths instead (generalised Maxwell slip). ``cable_elasticity``:
         across the band as the input travels (an elasto-plastic element). A ``sensor`` block
         reads the result last.
+
+        Evaluated in windows of :data:`WINDOW_FRAMES` (:meth:`reading_windows`), so that an
+        hour's log costs one output array, not a dozen temporaries of its length.
         """
+        if inputs.n_frames <= WINDOW_FRAMES or not self.streams:
+            return self.reading_at(inputs, theta)[0]
+        y = np.empty(inputs.n_frames)
+        for a, b, part in self.reading_windows(inputs, theta):
+            y[a:b] = part
+        return y
+
+    @property
+    def streams(self) -> bool:
+        """Whether the reading can be evaluated in windows of frames (every block streams)."""
+        return all(b.streams for b in self.block_objects)
+
+    def derive(self, inputs: PassageInputs) -> None:
+        """Compute, on the whole ``inputs``, every derived array the reading reads (before windows)."""
+        band = scale_band(inputs)
+        effects = {b.effect for b in self.block_objects}
+        if effects & {"stick_slip", "cable_elasticity"}:
+            inputs.first_motion(band)
+        if "stick_slip" not in effects:  # the memoryless edge (a cable_elasticity of compliance 0 is one)
+            inputs.slip_state(band)
+        for b in self.block_objects:
+            b.derive(inputs)
+
+    def reading_windows(self, inputs: PassageInputs, theta: dict, frames: int | None = None):
+        """Yield ``(start, stop, y)``: the reading of frames ``start`` to ``stop - 1`` [Q], in order.
+
+        Exactly :meth:`reading`'s numbers: the edges are per frame, the derived arrays are the
+        whole inputs' (:meth:`derive`), and the play operator's output (each Maxwell-slip
+        element's, the elastic state) is carried from one window to the next. A model with a
+        block that does not stream (``clock_skew`` reads later frames) yields one window.
+        """
+        n, size = inputs.n_frames, int(frames or WINDOW_FRAMES)
+        if n <= size or not self.streams:
+            yield 0, n, self.reading_at(inputs, theta)[0]
+            return
+        self.derive(inputs)
+        carry = None
+        for a in range(0, n, size):
+            b = min(a + size, n)
+            y, carry = self.reading_at(inputs.window(a, b), theta, carry)
+            yield a, b, y
+
+    def reading_at(self, inputs: PassageInputs, theta: dict, carry=None) -> tuple[NDArray, Any]:
+        """The reading of ``inputs`` (all of them, or a window) from the state ``carry``, and the state after it."""
         blocks = self.block_objects
         effects = {b.effect for b in blocks}
         compliance = theta.get("cable_elasticity:compliance", 0.0)
@@ -214,17 +261,21 @@ class PassageCapstan(PassageModel):
             lo = np.where(inputs.reset, on_edge, np.minimum(forward, reverse))
             hi = np.where(inputs.reset, on_edge, np.maximum(forward, reverse))
             width = theta.get("smooth_edge:width", 0.0)
-            y = maxwell_slip_output(lo, hi, inputs.reset, width)[0] if width > 0 else play_output(lo, hi, inputs.reset)
+            if width > 0:
+                y, _, carry = maxwell_slip_output(lo, hi, inputs.reset, width, y0=carry, with_state=True)
+            else:
+                y = play_output(lo, hi, inputs.reset, carry)
+                carry = y[-1]
         elif "cable_elasticity" in effects and compliance > 0:
             forward, reverse = self.edges(inputs, theta)
             start = inputs.first_motion(scale_band(inputs))
-            y = elastic_state(forward, reverse, inputs.position, compliance, inputs.reset, start)
+            y, carry = elastic_state(forward, reverse, inputs.position, compliance, inputs.reset, start, carry)
         else:  # no memory (a cable_elasticity of compliance 0 is none)
             (y,) = self.edges(inputs, theta, inputs.slip_state(scale_band(inputs)))
         for b in blocks:
             if b.stage == "sensor":
                 y = b.sensor(inputs, y, _values(theta, b), self.direction)
-        return y
+        return y, carry
 
     # ---- estimator -------------------------------------------------------------------
     def fit(self, data: PassageRecording | Sequence[PassageRecording]) -> PassageCapstan:

@@ -84,6 +84,8 @@ class ClockSkew(PassageBlock):
     param_names: ClassVar[tuple[str, ...]] = ("skew_s",)
     units: ClassVar[dict[str, str]] = {"skew_s": "s"}
     regressor: ClassVar[str] = "the rate of change of the predicted output: residual grows with its speed"
+    #: It reads up to SKEW_FRAMES frames ahead of each frame.
+    streams: ClassVar[bool] = False
 
     def bounds(self, scale):
         return {"skew_s": (-SKEW_FRAMES * scale["dt"], SKEW_FRAMES * scale["dt"])}
