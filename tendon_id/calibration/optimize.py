@@ -101,8 +101,8 @@ def minimize(
     xtol_rel, ftol_rel, maxeval :
         Stopping rules.
     fun_grad : callable, optional
-        ``x -> (fun(x), grad(x))`` in one pass, where nlopt asks for both (with ``grad``, which
-        it then replaces there): one evaluation of what they share instead of two.
+        ``x -> (fun(x), grad(x))`` in one pass, where nlopt asks for both: one evaluation of
+        what they share instead of two. It stands for ``grad`` (SLSQP) where that is not given.
     initial_step : ndarray, optional
         COBYLA's first step per parameter (its trust region only shrinks from there); default a
         tenth of each parameter's size, at least a thousandth of its bounds' width.
@@ -112,6 +112,8 @@ def minimize(
     Outcome
     """
     n = len(x0)
+    if grad is None and fun_grad is not None:
+        grad = lambda x: fun_grad(x)[1]  # noqa: E731 - SLSQP asks for both through fun_grad
     algorithm = nlopt.LD_SLSQP if grad is not None else nlopt.LN_COBYLA
     opt = nlopt.opt(algorithm, n)
     lb = np.asarray(lb, dtype=float)

@@ -35,7 +35,7 @@ class WindowCache(dict):
             self[key] = value[start:stop] if per_frame else value
         self.bounds = (start, stop)
 
-    def compute(self, key: str):
+    def refuse(self, key: str):
         raise RuntimeError(
             f"the derived array {key!r} was not computed on the whole inputs before frames "
             f"{self.bounds[0]}-{self.bounds[1]} were read as a window"
@@ -66,7 +66,7 @@ class FrameInputs:
         """``compute()`` once per key: derived arrays read on every evaluation of a model (wraps, speeds)."""
         if key not in self.cache:
             if isinstance(self.cache, WindowCache):
-                self.cache.compute(key)
+                self.cache.refuse(key)
             self.cache[key] = compute()
         return self.cache[key]
 

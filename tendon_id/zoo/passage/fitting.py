@@ -202,7 +202,6 @@ def calibrate_passage(model, inputs, start: dict | None = None) -> Fit:
             x0 * d,
             lb=lo * d,
             ub=hi * d,
-            grad=lambda u, vg=value_and_gradient: vg(u)[1],
             fun_grad=value_and_gradient,
             xtol_rel=XTOL_REL,
             ftol_rel=FTOL_REL,
@@ -240,7 +239,7 @@ def jacobian_sums(residuals, x: NDArray, lo: NDArray, hi: NDArray) -> tuple[floa
     """
     h = FD_STEP * np.maximum(np.abs(x), 1e-3 * (hi - lo))
     h = np.where(x + h > hi, -h, h)
-    steps = [x] + [x + h[k] * np.eye(x.size)[k] for k in range(x.size)]
+    steps = [x, *(x + np.diag(h))]
     rr, Jtr, JtJ = 0.0, np.zeros(x.size), np.zeros((x.size, x.size))
     for r0, *shifted in zip(*(residuals(p) for p in steps)):
         J = np.column_stack([(r - r0) / hk for r, hk in zip(shifted, h)]) if shifted else np.empty((r0.size, 0))

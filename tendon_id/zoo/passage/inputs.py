@@ -174,11 +174,8 @@ class PassageInputs(FrameInputs):
         """
 
         def compute():
-            x = self.travel()
-            n = max(int(round(SPEED_WINDOW_S / self.dt)), 1)
-            idx = np.arange(self.n_frames)
-            back = np.maximum(idx - n, self.first_frame)
-            span = np.maximum(idx - back, 1) * self.dt
+            x, back = self.travel(), self._back()
+            span = np.maximum(np.arange(self.n_frames) - back, 1) * self.dt
             return (x - x[back]) / span
 
         return self.memo("speed", compute) if keep or "speed" in self.cache else compute()

@@ -207,10 +207,11 @@ class PassageCapstan(PassageModel):
         Evaluated in windows of :data:`WINDOW_FRAMES` (:meth:`reading_windows`), so that an
         hour's log costs one output array, not a dozen temporaries of its length.
         """
-        if inputs.n_frames <= WINDOW_FRAMES or not self.streams:
-            return self.reading_at(inputs, theta)[0]
-        y = np.empty(inputs.n_frames)
+        y = None
         for a, b, part in self.reading_windows(inputs, theta):
+            if b - a == inputs.n_frames:  # one window: the whole reading
+                return part
+            y = np.empty(inputs.n_frames) if y is None else y
             y[a:b] = part
         return y
 
