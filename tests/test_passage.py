@@ -132,6 +132,12 @@ def test_the_inverse_direction_predicts_the_input():
     score = model.score(recs[2])
     assert score["side"] == "input" and score["predicted"]["r2"] > 0.9
     assert model.theta_["phi"] == pytest.approx(TRUE["phi"], abs=0.02)
+    # A warm-up longer than the data's trajectories leaves nothing to score: an error, not a crash
+    # in the metrics (found by the model-file fuzz: a saved warmup_s raised past the data's length).
+    longest = recs[2].n_frames * recs[2].dt
+    model.set_params(warmup_s=2 * longest)
+    with pytest.raises(ConfigError, match=f"leaves no frame to score: the longest trajectory lasts {longest:g} s"):
+        model.score(recs[2])
 
 
 @pytest.mark.skipif(not BENCH.is_dir(), reason="../shared/data/real is not here")

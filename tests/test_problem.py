@@ -182,3 +182,15 @@ def test_importing_the_diagnostics_silences_only_arvizs_refactor_notice(tmp_path
         stamp.unlink()  # the failed import may have stamped today
     ours = run("import tendon_id.calibration.mcmc")
     assert ours.returncode == 0, ours.stderr
+
+
+def test_inputs_of_one_recording_are_its_arrays_without_a_second_copy_nor_an_alias(data):
+    """One recording's blocks are taken as they come (issue 42's memory), and never share the frame's memory."""
+    inputs = TransmissionInputs.from_recordings(data)
+    for name in ("angles", "actuator", "terminal"):
+        got = getattr(inputs, name)
+        assert got.flags.owndata, name  # the recording's fresh block itself, not a copy of it
+        np.testing.assert_array_equal(got, getattr(data, name))
+        assert not any(np.shares_memory(got, data.frame[c].to_numpy()) for c in data.frame.columns if c != "trajectory")
+    both = TransmissionInputs.from_recordings([data, data])
+    np.testing.assert_array_equal(both.actuator, np.concatenate([data.actuator] * 2))

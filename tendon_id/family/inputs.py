@@ -17,7 +17,25 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FrameInputs", "WindowCache"]
+__all__ = ["SLICE_FRAMES", "FrameInputs", "WindowCache", "by_slices"]
+
+#: Frames of one slice where a derived array is computed piecewise (:func:`by_slices`): its
+#: temporaries stay a few MiB however long the log (an hour at 1 kHz is 3.6e6 frames).
+SLICE_FRAMES = 1 << 18
+
+
+def by_slices(n_frames: int, dtype, fill) -> NDArray:
+    """A per-frame array of ``n_frames``, filled slice by slice of :data:`SLICE_FRAMES` frames.
+
+    ``fill(a, b)`` returns frames ``a`` to ``b - 1``, in order, so it may carry a state from one
+    slice to the next. Elementwise work gives the bits of the whole computation, with whole-length
+    temporaries never built.
+    """
+    out = np.empty(n_frames, dtype=dtype)
+    for a in range(0, n_frames, SLICE_FRAMES):
+        b = min(a + SLICE_FRAMES, n_frames)
+        out[a:b] = fill(a, b)
+    return out
 
 
 class WindowCache(dict):
@@ -75,16 +93,33 @@ class FrameInputs:
         return getattr(self, signal, None) is not None
 
     @property
-    def first_frame(self) -> NDArray[np.int64]:
-        """ndarray of int, shape (T,) : Index of the first frame of each frame's trajectory."""
-        return self.memo(
-            "first_frame", lambda: np.maximum.accumulate(np.where(self.reset, np.arange(self.n_frames), 0))
-        )
+    def first_frame(self) -> NDArray[np.integer]:
+        """ndarray of int, shape (T,) : Index of the first frame of each frame's trajectory.
+
+        int32 where the frames fit in it (an hour at 1 kHz is 3.6e6), else int64: it is kept.
+        """
+        last = 0  # the first frame of the trajectory running into the slice
+
+        def fill(a, b):
+            nonlocal last
+            out = np.maximum.accumulate(np.where(self.reset[a:b], np.arange(a, b), last))
+            last = int(out[-1])
+            return out
+
+        dtype = np.int32 if self.n_frames < 2**31 else np.int64
+        return self.memo("first_frame", lambda: by_slices(self.n_frames, dtype, fill))
 
     @property
     def since_start(self) -> NDArray[np.float64]:
-        """ndarray, shape (T,) : Time since the start of each frame's trajectory [s]."""
-        return self.memo("since_start", lambda: (np.arange(self.n_frames) - self.first_frame) * self.dt)
+        """ndarray, shape (T,) : Time since the start of each frame's trajectory [s].
+
+        Computed at each read, not kept: what reads it (a warm-up's mask) reads it once, and a
+        float per frame is as much as a signal. A window (:meth:`window`) counts from the whole's
+        frame indices.
+        """
+        first = self.first_frame
+        offset = self.cache.bounds[0] if isinstance(self.cache, WindowCache) else 0
+        return by_slices(self.n_frames, float, lambda a, b: (np.arange(offset + a, offset + b) - first[a:b]) * self.dt)
 
     @property
     def trajectory_bounds(self) -> list[tuple[int, int]]:

@@ -227,12 +227,19 @@ class TransmissionInputs(FrameInputs):
         dt = recs[0].dt
         # A load cell's drift runs from its tare, at the start of a recording, not from an earlier file's.
         clocks = [np.arange(r.n_frames) * dt for r in recs]
+
+        def joined(parts):
+            # A recording's block is usually a new array: one recording's is then taken, not copied
+            # again (a view of the recording's frame is copied, so that nothing here aliases it).
+            one = len(parts) == 1 and parts[0].flags.owndata
+            return parts[0] if one else np.concatenate(parts)
+
         return cls(
-            angles=np.concatenate([r.angles for r in recs]),
-            actuator=np.concatenate([r.actuator for r in recs]),
-            terminal=np.concatenate([r.terminal for r in recs]),
-            reset=np.concatenate([r.trajectory_starts for r in recs]),
-            clock=np.concatenate(clocks),
+            angles=joined([r.angles for r in recs]),
+            actuator=joined([r.actuator for r in recs]),
+            terminal=joined([r.terminal for r in recs]),
+            reset=joined([r.trajectory_starts for r in recs]),
+            clock=joined(clocks),
             dt=dt,
             geometry=geometry,
         )

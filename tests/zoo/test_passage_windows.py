@@ -74,3 +74,60 @@ def test_a_window_refuses_a_derived_array_the_whole_inputs_lack():
         inputs.window(50, 100).speed()
     inputs.speed()
     np.testing.assert_array_equal(inputs.window(50, 100).speed(), inputs.speed()[50:100])
+
+
+def whole_derivations(inputs: PassageInputs, band: float) -> dict:
+    """The derived arrays computed on whole-length arrays, as before they were sliced (the reference)."""
+    from friction_models import play_operator
+    from tendon_id.zoo.passage.inputs import SPEED_WINDOW_S
+
+    n = inputs.n_frames
+    first = np.maximum.accumulate(np.where(inputs.reset, np.arange(n), 0))
+    x = inputs.travel()
+    back = np.maximum(np.arange(n) - max(int(round(SPEED_WINDOW_S / inputs.dt)), 1), first)
+    moved = x - x[back]
+    sigma = np.where(np.abs(moved) > band, np.sign(moved), 0.0).astype(np.int8)
+    moving = np.flatnonzero(sigma != 0)
+    starts = np.flatnonzero(inputs.reset)
+    at = np.searchsorted(moving, starts)
+    idx = moving[np.minimum(at, max(moving.size - 1, 0))] if moving.size else starts
+    first_sigma = np.where((at < moving.size) & (first[idx] == starts), sigma[idx], 1).astype(np.int8)
+    follower = play_operator(x, band, inputs.reset).log_out
+    return {
+        "first_frame": first,
+        "since_start": (np.arange(n) - first) * inputs.dt,
+        "slip_state": sigma,
+        "first_motion": first_sigma[np.searchsorted(starts, first, side="left")],
+        "direction": np.where(x - follower >= 0, 1, -1).astype(np.int8),
+        "speed": moved / (np.maximum(np.arange(n) - back, 1) * inputs.dt),
+    }
+
+
+@pytest.mark.parametrize("slice_frames", [1, 37, 1 << 18])
+def test_derived_arrays_in_slices_are_the_whole_computation(monkeypatch, slice_frames):
+    from tendon_id.family import inputs as family_inputs
+    from tendon_id.zoo.passage import inputs as passage_inputs
+
+    monkeypatch.setattr(family_inputs, "SLICE_FRAMES", slice_frames)
+    monkeypatch.setattr(passage_inputs, "SLICE_FRAMES", slice_frames)
+    recs = [tendon_passage(s, n=300) for s in range(3)]
+    still = recs[0].frame.assign(trajectory="still", input=1.0, position=0.0)  # never moves: first motion +1
+    recs.append(PassageRecording(still, recs[0].meta))
+    inputs = PassageInputs.from_recordings(recs)
+    band = 0.5 * float(np.std(np.diff(inputs.travel())))
+    want = whole_derivations(inputs, band)
+    got = {
+        "first_frame": inputs.first_frame,
+        "since_start": inputs.since_start,
+        "slip_state": inputs.slip_state(band),
+        "first_motion": inputs.first_motion(band),
+        "direction": inputs.direction(band),
+        "speed": inputs.speed(),
+    }
+    a, b = 250, 700  # a window counts from the whole's frames
+    np.testing.assert_array_equal(inputs.window(a, b).since_start, want["since_start"][a:b])
+    assert not got["slip_state"][-300:].any() and np.all(got["first_motion"][-300:] == 1)  # the still one
+    assert got["first_frame"].dtype == np.int32  # an index kept per frame: four bytes where they do
+    for key, value in want.items():
+        assert got[key].dtype == value.dtype or key == "first_frame", key
+        np.testing.assert_array_equal(got[key], value, err_msg=key)

@@ -13,7 +13,7 @@ from friction_models import play_operator
 from tendon_id.data.frame import FrameRecording
 from tendon_id.data.passage import PassageRecording
 from tendon_id.errors import ConfigError
-from tendon_id.family.inputs import FrameInputs
+from tendon_id.family.inputs import SLICE_FRAMES, FrameInputs, by_slices
 
 #: Window of the backward difference that gives the input speed [s] (an encoder count per
 #: frame is too coarse at 1 kHz; 20 ms averages it while lagging the motion by 10 ms).
@@ -121,12 +121,15 @@ class PassageInputs(FrameInputs):
         flickers does not flip it.
         """
 
-        def compute():
-            x = self.travel()
-            follower = play_operator(x, band, self.reset).log_out
-            return np.where(x - follower >= 0, 1, -1).astype(np.int8)
+        x, last = self.travel(), None  # the follower's output before the slice
 
-        return self.memo(f"direction:{band!r}", compute)
+        def fill(a, b):
+            nonlocal last
+            follower = play_operator(x[a:b], band, self.reset[a:b], y0=last).log_out
+            last = follower[-1]
+            return np.where(x[a:b] - follower >= 0, 1, -1)
+
+        return self.memo(f"direction:{band!r}", lambda: by_slices(self.n_frames, np.int8, fill))
 
     def slip_state(self, band: float) -> NDArray:
         """The slip state of the paper's Eq. (6), memoryless: +1, -1, or 0 (stick), int8, shape (T,).
@@ -135,13 +138,14 @@ class PassageInputs(FrameInputs):
         else 0: a model without a holding state knows only whether the input moves now.
         """
 
-        def compute():
-            x = self.travel()
-            moved = x - x[self._back()]
-            # int8: a state per frame is kept for every evaluation of a fit (a byte, not eight, at 1 kHz).
-            return np.where(np.abs(moved) > band, np.sign(moved), 0.0).astype(np.int8)
+        x = self.travel()
 
-        return self.memo(f"slip:{band!r}", compute)
+        def fill(a, b):
+            moved = x[a:b] - x[self._back(a, b)]
+            return np.where(np.abs(moved) > band, np.sign(moved), 0.0)
+
+        # int8: a state per frame is kept for every evaluation of a fit (a byte, not eight, at 1 kHz).
+        return self.memo(f"slip:{band!r}", lambda: by_slices(self.n_frames, np.int8, fill))
 
     def first_motion(self, band: float) -> NDArray:
         """Each frame's trajectory's first slip state other than stick (+1 where it never moves), int8, shape (T,).
@@ -151,21 +155,33 @@ class PassageInputs(FrameInputs):
         """
 
         def compute():
-            sigma = self.slip_state(band)
-            moving = np.flatnonzero(sigma != 0)
-            first = self.first_frame
+            sigma, n = self.slip_state(band), self.n_frames
             starts = np.flatnonzero(self.reset)
-            at = np.searchsorted(moving, starts)
-            idx = moving[np.minimum(at, max(moving.size - 1, 0))] if moving.size else starts
-            first_sigma = np.where((at < moving.size) & (first[idx] == starts), sigma[idx], 1).astype(np.int8)
-            return first_sigma[np.searchsorted(starts, first, side="left")]
+            ends = np.r_[starts[1:], n]
+            # The first moving frame at or after each start, found slice by slice (the moving
+            # frames of a whole log would be an index per frame).
+            found = np.full(starts.size, -1, dtype=np.int64)
+            for a in range(0, n, SLICE_FRAMES):
+                b = min(a + SLICE_FRAMES, n)
+                moving = a + np.flatnonzero(sigma[a:b])
+                todo = np.flatnonzero((found < 0) & (starts < b))
+                at = np.searchsorted(moving, starts[todo])
+                hit = at < moving.size
+                found[todo[hit]] = moving[at[hit]]
+            own = (found >= 0) & (found < ends)  # in its own trajectory, not a later one
+            first_sigma = np.where(own, sigma[np.maximum(found, 0)], 1).astype(np.int8)
+            if not starts.size:
+                return np.ones(n, np.int8)
+            # Frames before the first start (none where frame 0 is a reset) read the first trajectory's.
+            return np.repeat(first_sigma, np.diff(np.r_[0, starts[1:], n]))
 
         return self.memo(f"first_motion:{band!r}", compute)
 
-    def _back(self) -> NDArray:
-        """Index of the frame SPEED_WINDOW_S before each frame (not before its trajectory's start)."""
+    def _back(self, a: int = 0, b: int | None = None) -> NDArray:
+        """Index of the frame SPEED_WINDOW_S before frames ``a`` to ``b - 1`` (not before their trajectory's start)."""
+        b = self.n_frames if b is None else b
         n = max(int(round(SPEED_WINDOW_S / self.dt)), 1)
-        return np.maximum(np.arange(self.n_frames) - n, self.first_frame)
+        return np.maximum(np.arange(a, b) - n, self.first_frame[a:b])
 
     def speed(self, keep: bool = True) -> NDArray:
         """Input speed [rad/s] (or the input signal's rate), a backward difference over SPEED_WINDOW_S.
@@ -173,9 +189,14 @@ class PassageInputs(FrameInputs):
         ``keep=False`` computes it without keeping it, where it is read once (a data scale).
         """
 
+        x = self.travel()
+
+        def fill(a, b):
+            back = self._back(a, b)
+            span = np.maximum(np.arange(a, b) - back, 1) * self.dt
+            return (x[a:b] - x[back]) / span
+
         def compute():
-            x, back = self.travel(), self._back()
-            span = np.maximum(np.arange(self.n_frames) - back, 1) * self.dt
-            return (x - x[back]) / span
+            return by_slices(self.n_frames, float, fill)
 
         return self.memo("speed", compute) if keep or "speed" in self.cache else compute()

@@ -76,6 +76,11 @@ class PassageModel(Estimator):
         """``{"predicted": M}``: RMSE, R^2 and max error of the predicted side, after the warm-up."""
         inputs = self.inputs(data)
         keep = inputs.since_start >= float(self.warmup_s)
+        if not keep.any():
+            longest = max(b - a for a, b in inputs.trajectory_bounds) * inputs.dt
+            raise ConfigError(
+                f"warmup_s = {self.warmup_s} s leaves no frame to score: the longest trajectory lasts {longest:g} s"
+            )
         pred = self.predict(inputs)[keep]
         return {"predicted": tendon_metrics(pred[:, None], self.target(inputs)[keep][:, None]), "side": self.side}
 
