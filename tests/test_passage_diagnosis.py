@@ -48,6 +48,29 @@ def test_splits_are_by_file_and_strata_cover_every_frame():
         assert s.test.n_frames == sum(whole[k].size for k in test)
     with pytest.raises(ConfigError, match="two or more files"):
         file_splits(recs[:1], None, folds=3)
+
+
+@pytest.mark.parametrize("folds", [2, 3, 5])
+def test_file_splits_are_the_files_inputs_as_parts_of_one_stack(folds):
+    """Each side equals the inputs of its files read alone; a fold's sides are views of one stack, and the
+    held-out folds stacked back are that stack itself (issue 42: no copy per fold)."""
+    recs = [tendon_passage(s, n=200 + 50 * s) for s in range(5)]
+    splits, _ = file_splits(recs, None, folds=folds)
+    groups = np.array_split(np.arange(len(recs)), folds)
+    stack = splits[0].test.input.base
+    for g, s in zip(groups, splits):
+        for side, files in ((s.test, list(g)), (s.train, [i for i in range(len(recs)) if i not in g])):
+            alone = PassageInputs.from_recordings([recs[i] for i in files])
+            for f in PassageInputs.frame_fields:
+                np.testing.assert_array_equal(getattr(side, f), getattr(alone, f), err_msg=f)
+            np.testing.assert_array_equal(side.direction(0.01), alone.direction(0.01))
+        assert np.shares_memory(s.test.input, stack)
+        at_an_end = g[0] == 0 or g[-1] == len(recs) - 1
+        assert np.shares_memory(s.train.input, stack) == at_an_end  # a copy only between the ends
+    heldout = PassageInputs.concat([s.test for s in splits])
+    assert heldout.input.base is stack and heldout.n_frames == sum(r.n_frames for r in recs)
+    with pytest.raises(ValueError, match="does not start a trajectory"):
+        splits[0].test.part(1, 10)
     inputs = PassageInputs.from_recordings(recs)
     strata = dict((name, mask) for name, _, mask in passage_strata(inputs))
     near, away = strata["near reversals"], strata["away from reversals"]

@@ -95,7 +95,12 @@ class FrameRecording(abc.ABC):
     def trajectory_starts(self) -> np.ndarray:
         """ndarray of bool, shape (T,) : True on the first frame of each trajectory."""
         # From codes: a str per frame would be a Python object per frame.
-        return rules.trajectory_starts(pd.factorize(self._frame["trajectory"])[0])
+        return rules.trajectory_starts(self.trajectory_codes)
+
+    @property
+    def trajectory_codes(self) -> np.ndarray:
+        """ndarray of int, shape (T,) : Each frame's trajectory, numbered from 0 in order of first appearance."""
+        return pd.factorize(self._frame["trajectory"])[0]
 
     def column_view(self, column: str) -> np.ndarray | None:
         """A numeric column as a read-only float64 array [SI], a view where it is float64, or None.

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["SLICE_FRAMES", "FrameInputs", "WindowCache", "by_slices"]
+__all__ = ["SLICE_FRAMES", "FrameInputs", "WindowCache", "adjacent_view", "by_slices"]
 
 #: Frames of one slice where a derived array is computed piecewise (:func:`by_slices`): its
 #: temporaries stay a few MiB however long the log (an hour at 1 kHz is 3.6e6 frames).
@@ -134,6 +134,21 @@ class FrameInputs:
             cut["reset"][0] = True
         return dataclasses.replace(self, **cut)
 
+    def part(self, start: int, stop: int):
+        """Frames ``start`` to ``stop - 1``, whole trajectories, as inputs of views with derived arrays of their own.
+
+        A split of a diagnosis by file is such a part of all the files' inputs: no copy of its signals.
+
+        Raises
+        ------
+        ValueError
+            If ``start`` is not a trajectory's first frame.
+        """
+        if start < stop and not self.reset[start]:
+            raise ValueError(f"frame {start} does not start a trajectory: a part holds whole trajectories")
+        cut = {f: None if getattr(self, f) is None else getattr(self, f)[start:stop] for f in self.frame_fields}
+        return dataclasses.replace(self, **cut)
+
     def window(self, start: int, stop: int):
         """Frames ``start`` to ``stop - 1`` as inputs of views, without copies.
 
@@ -156,6 +171,35 @@ class FrameInputs:
 
         def joined(name):
             arrays = [getattr(p, name) for p in parts]
-            return None if any(a is None for a in arrays) else np.concatenate(arrays)
+            if any(a is None for a in arrays):
+                return None
+            adjacent = adjacent_view(arrays)
+            return np.concatenate(arrays) if adjacent is None else adjacent
 
         return dataclasses.replace(parts[0], **{f: joined(f) for f in cls.frame_fields})
+
+
+def adjacent_view(arrays: Sequence[NDArray]) -> NDArray | None:
+    """The view that ``arrays``, consecutive slices along axis 0 of one array, make together, else None.
+
+    Parts cut from one whole (:meth:`FrameInputs.part`) and stacked back in order are that whole:
+    the view costs nothing where :func:`numpy.concatenate` would copy it. Read-only if any part is.
+    """
+    first = arrays[0]
+    base = first.base
+    step = first.strides[0] if first.ndim else 0
+    same = all(isinstance(a, np.ndarray) and a.base is base and a.strides == first.strides for a in arrays)
+    if not isinstance(base, np.ndarray) or not same or step <= 0 or base.strides != first.strides:
+        return None
+    if any(a.shape[1:] != base.shape[1:] or a.dtype != base.dtype for a in arrays):
+        return None
+    ptr = [a.__array_interface__["data"][0] for a in arrays]
+    if any(p + len(a) * step != q for p, a, q in zip(ptr, arrays, ptr[1:])):
+        return None
+    offset, rest = divmod(ptr[0] - base.__array_interface__["data"][0], step)
+    if rest or offset < 0:
+        return None
+    out = base[offset : offset + sum(len(a) for a in arrays)]
+    if not all(a.flags.writeable for a in arrays):
+        out.flags.writeable = False
+    return out

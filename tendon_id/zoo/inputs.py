@@ -199,6 +199,10 @@ class TransmissionInputs(FrameInputs):
         """
         return FrameInputs.subset(self._with_slid(), mask)
 
+    def part(self, start: int, stop: int) -> TransmissionInputs:
+        """Frames ``start`` to ``stop - 1`` as views (:meth:`FrameInputs.part`), with the whole's sliding distance."""
+        return FrameInputs.part(self._with_slid(), start, stop)
+
     @classmethod
     def concat(cls, parts: Sequence[TransmissionInputs]) -> TransmissionInputs:
         """Inputs stacked in time, each part's sliding distance (:attr:`slid`) kept as the part has it."""

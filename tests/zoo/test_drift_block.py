@@ -174,3 +174,28 @@ def test_model_with_the_block_saves_and_loads(tmp_path):
     assert (loaded.run_in_length_m, loaded.prior_sliding_m) == (0.05, 0.01)
     assert back.block_params_ == model.block_params_
     np.testing.assert_array_equal(back.predict_terminal(rec), model.predict_terminal(rec))
+
+
+@pytest.mark.parametrize("folds", [2, 3, 4])
+def test_trajectory_splits_are_the_masked_subsets_as_views_of_one_session(folds):
+    """make_splits cuts contiguous trajectory groups as parts (views) of the session: the same arrays
+    as the subsets by mask, with a copy only for a training set on both sides of its held-out group."""
+    recs = [
+        simulate(NOISE_ONLY, "planned-paths", frames=900, seed=0).recording,
+        simulate(NOISE_ONLY, "posterior-6", frames=400, seed=1).recording,
+    ]
+    whole = TransmissionInputs.from_recordings(recs)
+    splits, how = make_splits(recs, None, whole.geometry, folds)
+    assert how == f"{folds}-fold cross-validation by trajectory"
+    ids = np.concatenate([np.char.add(f"{k}/", r.trajectory_ids) for k, r in enumerate(recs)])
+    _, first = np.unique(ids, return_index=True)
+    for group, s in zip(np.array_split(ids[np.sort(first)], folds), splits):
+        held = np.isin(ids, group)  # the former construction, by the trajectories' text
+        for side, mask in ((s.test, held), (s.train, ~held)):
+            want = whole.subset(mask)
+            for f in TransmissionInputs.frame_fields:
+                np.testing.assert_array_equal(getattr(side, f), getattr(want, f), err_msg=f)
+        assert np.shares_memory(s.test.actuator, splits[0].test.actuator.base)
+    heldout = TransmissionInputs.concat([s.test for s in splits])
+    np.testing.assert_array_equal(heldout.actuator, whole.actuator)
+    assert heldout.actuator.base is splits[0].test.actuator.base  # the session itself, not a copy

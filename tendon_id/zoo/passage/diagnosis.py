@@ -47,13 +47,15 @@ def file_splits(train: list, test: list | None, folds: int) -> tuple[list[Split]
         raise ConfigError("cross-validation by file needs two or more files; give held-out files", param="test")
     k = min(folds, len(train))
     groups = np.array_split(np.arange(len(train)), k)
-    splits = [
-        Split(
-            PassageInputs.from_recordings([r for i, r in enumerate(train) if i not in g]),
-            PassageInputs.from_recordings([train[i] for i in g]),
-        )
-        for g in groups
-    ]
+    # The files' signals are stacked once; each fold's held-out files are a part of them (views),
+    # and so is its training set where the held-out files are at an end (a copy only in between).
+    whole = PassageInputs.from_recordings(train)
+    edges = np.cumsum([0] + [r.n_frames for r in train])
+    splits = []
+    for g in groups:
+        a, b = int(edges[g[0]]), int(edges[g[-1] + 1])
+        rest = [p for p in (whole.part(0, a), whole.part(b, whole.n_frames)) if p.n_frames]
+        splits.append(Split(PassageInputs.concat(rest), whole.part(a, b)))
     return splits, f"{k}-fold cross-validation by file ({len(train)} files)"
 
 

@@ -57,9 +57,6 @@ class PassageInputs(FrameInputs):
         Sample period [s].
     quantity : str
         ``torque`` or ``tension``.
-    trajectory : ndarray of int, shape (T,)
-        The trajectory of each frame, numbered from 0 over the stacked recordings in order (a
-        code, not the id's text: a string per frame would cost more than the signals at 1 kHz).
     """
 
     frame_fields: ClassVar[tuple[str, ...]] = (
@@ -69,7 +66,6 @@ class PassageInputs(FrameInputs):
         "position_out",
         "wrap",
         "reset",
-        "trajectory",
     )
 
     input: NDArray
@@ -80,7 +76,6 @@ class PassageInputs(FrameInputs):
     reset: NDArray
     dt: float
     quantity: str
-    trajectory: NDArray
     cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @classmethod
@@ -91,11 +86,16 @@ class PassageInputs(FrameInputs):
             raise ConfigError(f"the recordings have different sample periods: {sorted(dts)} s")
 
         def joined(parts):
-            # One recording's arrays are its own (views); several are joined into one copy.
-            return None if any(p is None for p in parts) else parts[0] if len(parts) == 1 else np.concatenate(parts)
+            # One recording's arrays are its own (views); several are joined into one copy. Read-only
+            # either way: the parts of a diagnosis's splits are views of it (FrameInputs.part).
+            if any(p is None for p in parts):
+                return None
+            out = parts[0] if len(parts) == 1 else np.concatenate(parts)
+            if out.flags.owndata:
+                out.flags.writeable = False
+            return out
 
         reset = joined([r.trajectory_starts for r in recs])
-        # Read-only views of one recording's columns (the arrays are never written to).
         return cls(
             input=joined([r.column_view("input") for r in recs]),
             output=joined([r.column_view("output") for r in recs]),
@@ -105,8 +105,6 @@ class PassageInputs(FrameInputs):
             reset=reset,
             dt=recs[0].dt,
             quantity=recs[0].quantity,
-            # int32: 2^31 trajectories is beyond any log, and a code per frame is kept for the fit.
-            trajectory=np.cumsum(reset, dtype=np.int32) - 1,  # each recording starts a trajectory
         )
 
     def travel(self) -> NDArray:

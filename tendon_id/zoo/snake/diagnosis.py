@@ -88,25 +88,37 @@ def make_splits(train: list[Recording], test: list[Recording] | None, geometry, 
         When there are fewer trajectories than folds and no test data.
     """
     everything = TransmissionInputs.from_recordings(train + (test or []), geometry)
+    for f in everything.frame_fields:  # the splits are views of it: nothing may write to them
+        if getattr(everything, f) is not None:
+            getattr(everything, f).flags.writeable = False
     n_train = sum(r.n_frames for r in train)
     if test is not None:
         is_train = np.arange(everything.n_frames) < n_train
         split = Split(everything.subset(is_train), everything.subset(~is_train), MeasurementNoise.from_recordings(test))
         return [split], "held-out test data"
-    traj = np.concatenate([np.char.add(f"{k}/", r.trajectory_ids.astype(str)) for k, r in enumerate(train)])
-    _, first = np.unique(traj, return_index=True)
-    ids = traj[np.sort(first)]  # trajectories in session order
-    if len(ids) < folds:
+    # Each frame's trajectory, numbered in session order (file by file, in order of first appearance).
+    codes, n_ids = [], 0
+    for r in train:
+        c = r.trajectory_codes
+        codes.append(c + n_ids)
+        n_ids += int(c.max()) + 1 if c.size else 0
+    traj = np.concatenate(codes)
+    if n_ids < folds:
         raise ConfigError(
-            f"cross-validation by trajectory needs at least {folds} trajectories, the training data has {len(ids)}; "
+            f"cross-validation by trajectory needs at least {folds} trajectories, the training data has {n_ids}; "
             "give held-out test data or more trajectories",
             param="test",
         )
     noise = MeasurementNoise.from_recordings(train)
     splits = []
-    for group in np.array_split(ids, folds):
-        held = np.isin(traj, group)
-        splits.append(Split(everything.subset(~held), everything.subset(held), noise))
+    for group in np.array_split(np.arange(n_ids), folds):
+        held = (traj >= group[0]) & (traj <= group[-1])
+        a, b = int(np.argmax(held)), len(held) - int(np.argmax(held[::-1]))
+        if held[a:b].all():  # the group's frames in one run: parts of everything, views, no copies
+            rest = [p for p in (everything.part(0, a), everything.part(b, len(held))) if p.n_frames]
+            splits.append(Split(TransmissionInputs.concat(rest), everything.part(a, b), noise))
+        else:  # a trajectory id that comes back later in its file
+            splits.append(Split(everything.subset(~held), everything.subset(held), noise))
     return splits, f"{folds}-fold cross-validation by trajectory"
 
 
