@@ -88,6 +88,9 @@ def test_a_foreign_csv_and_its_mapping_give_the_same_fit_as_si(tmp_path):
         (lambda t: t.replace('unit = "mN", sign = 1', 'unit = "blorpnewton", sign = 1'), "unknown unit"),
         (lambda t: t.replace('"F tip"', '"F tipp"'), "no column 'F tipp'"),
         (lambda t: t.replace("sign = 1", "sign = -1"), "not positive"),
+        # Found by the mapping fuzz: column numbers count from 1, so -4 is no column (it was an IndexError).
+        (lambda t: t.replace('comment = "#"', 'comment = "#"\ntrajectory = -4'), "number from 1, got -4"),
+        (lambda t: t.replace('comment = "#"', 'comment = "#"\ntrajectory = 0'), "number from 1, got 0"),
     ],
 )
 def test_bad_mappings_exit_2_with_one_line(tmp_path, capsys, edit, words):

@@ -224,8 +224,14 @@ def _file_options(f: dict, where: str) -> dict:
     if not (isinstance(delimiter, str) and len(delimiter) == 1 and delimiter not in '"\r\n'):
         raise ConfigError(f"{where}: [file] delimiter must be one character such as ',', got {delimiter!r}")
     trajectory = f.get("trajectory", "file")
-    if isinstance(trajectory, bool) or not isinstance(trajectory, (str, int)):
-        raise ConfigError(f"{where}: [file] trajectory must be 'file' or a column's name or number, got {trajectory!r}")
+    if (
+        isinstance(trajectory, bool)
+        or not isinstance(trajectory, (str, int))
+        or (isinstance(trajectory, int) and trajectory < 1)
+    ):
+        raise ConfigError(
+            f"{where}: [file] trajectory must be 'file' or a column's name or number from 1, got {trajectory!r}"
+        )
     return {"comment": comment, "header": header, "delimiter": delimiter, "trajectory": trajectory}
 
 
@@ -278,7 +284,7 @@ def _locate(frame: pd.DataFrame, column: str | int, name: str, m: DataMapping, s
     """The file's column a mapping entry names: by name, else by 1-based number."""
     if column in frame.columns:
         return column
-    if isinstance(column, int) and column <= frame.shape[1]:
+    if isinstance(column, int) and 1 <= column <= frame.shape[1]:
         return frame.columns[column - 1]
     have = ", ".join(map(str, frame.columns[:12])) + (" ..." if frame.shape[1] > 12 else "")
     raise RecordingError(
