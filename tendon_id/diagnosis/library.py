@@ -86,23 +86,34 @@ class Library:
 
         Returns the vote (None when no column survives) and each effect's share of the
         fitted residual's sum of absolute standardised contributions.
+
+        The regression of the standardised residual ``y`` on the standardised columns ``Z``
+        (T rows) is run on their square-root form instead: with ``Z^T Z = R^T R`` and
+        ``R^T q = Z^T y``, ``|Z w - y|^2 = |R w - q|^2 + const`` for every ``w``, so each of
+        STLSQ's ridge and least-squares steps has the same minimiser on the C rows of ``R`` as on
+        the T frames (the least squares' normal equations, Golub & Van Loan 2013, "Matrix
+        Computations", 4th ed., section 5.3). The sums are taken slice by slice: no copy of the
+        columns per frame (issue 42's scale).
         """
         import pysindy as ps
 
-        y = residual.ravel()
-        X = self.columns.reshape(-1, self.columns.shape[-1])
-        ok = np.isfinite(y) & np.all(np.isfinite(X), axis=1)
-        X, y = X[ok], y[ok]
-        sd = X.std(axis=0)
-        live = sd > 0
-        if not live.any() or np.std(y) == 0:
+        moments = _moments(self.columns.reshape(-1, self.columns.shape[-1]), residual.ravel())
+        if moments is None:
             return None, {}
-        Z = (X[:, live] - X[:, live].mean(axis=0)) / sd[live]
-        yz = (y - y.mean()) / np.std(y)
+        n, sd, sd_y, Cxx, Cxy = moments
+        live = sd > 0
+        if not live.any() or sd_y == 0:
+            return None, {}
+        G = Cxx[np.ix_(live, live)] / np.outer(sd[live], sd[live])  # Z^T Z
+        b = Cxy[live] / (sd[live] * sd_y)  # Z^T y
+        lam, V = np.linalg.eigh(G)
+        keep = lam > lam.max() * 1e-12
+        R = np.sqrt(lam[keep])[:, None] * V[:, keep].T
+        q = (V[:, keep].T @ b) / np.sqrt(lam[keep])
         opt = ps.STLSQ(threshold=SPARSE_THRESHOLD, alpha=1e-3)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "eliminated all coefficients" is an answer here
-            opt.fit(Z, yz.reshape(-1, 1))
+            opt.fit(R, q.reshape(-1, 1))
         coef = np.zeros(len(self.labels))
         coef[live] = np.asarray(opt.coef_).ravel()
         weight: dict[str, float] = {}
@@ -123,3 +134,33 @@ class Library:
             if effect in effects:
                 out[label] = self.columns[..., c].ravel()[pick]
         return out
+
+
+def _moments(X: NDArray, y: NDArray):
+    """Over the rows where ``X`` and ``y`` are finite: their count, the columns' and ``y``'s standard
+    deviations, and the centred sums ``(X - m)^T (X - m)`` and ``(X - m)^T (y - m_y)``; None without rows.
+
+    Two passes over slices of :data:`~tendon_id.family.inputs.SLICE_FRAMES` rows (the means, then the
+    centred sums, as ``np.std`` centres before it squares).
+    """
+    from tendon_id.family.inputs import SLICE_FRAMES
+
+    c = X.shape[1]
+    slices = [slice(a, a + SLICE_FRAMES) for a in range(0, len(y), SLICE_FRAMES)]
+    n, sx, sy = 0, np.zeros(c), 0.0
+    for s in slices:
+        ok = np.isfinite(y[s]) & np.all(np.isfinite(X[s]), axis=1)
+        n += int(ok.sum())
+        sx += X[s][ok].sum(axis=0)
+        sy += float(y[s][ok].sum())
+    if n == 0:
+        return None
+    mx, my = sx / n, sy / n
+    Cxx, Cxy, Cyy = np.zeros((c, c)), np.zeros(c), 0.0
+    for s in slices:
+        ok = np.isfinite(y[s]) & np.all(np.isfinite(X[s]), axis=1)
+        xc, yc = X[s][ok] - mx, y[s][ok] - my
+        Cxx += xc.T @ xc
+        Cxy += xc.T @ yc
+        Cyy += float(yc @ yc)
+    return n, np.sqrt(np.diag(Cxx) / n), np.sqrt(Cyy / n), Cxx, Cxy
