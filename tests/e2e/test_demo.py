@@ -4,6 +4,8 @@ import dataclasses
 import html
 import re
 
+import pytest
+
 from tendon_id.cli import main
 from tendon_id.datasets import DEFAULT_RECIPE
 
@@ -26,6 +28,7 @@ def test_demo_writes_a_self_contained_summary(tmp_path, capsys):
     assert "elastic tendons through capstan stick–slip bands" in lead and "dead zone" in lead
 
 
+@pytest.mark.slow  # 314 s of one CI worker in the durations run at d67b1f4; `make test-all` runs it
 def test_demo_with_models_compares_capstan_and_pgchtc(tmp_path, capsys, monkeypatch):
     # The full demo trains PG-CHTC (fast preset); here the tiny preset keeps the test short.
     import tendon_id.zoo as zoo
