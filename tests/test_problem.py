@@ -189,7 +189,7 @@ def test_inputs_of_one_recording_are_its_arrays_without_a_second_copy_nor_an_ali
     inputs = TransmissionInputs.from_recordings(data)
     for name in ("angles", "actuator", "terminal"):
         got = getattr(inputs, name)
-        assert got.flags.owndata, name  # the recording's fresh block itself, not a copy of it
+        assert not got.flags.owndata, name  # column_block's fresh block itself (a reshaped view), not a copy
         np.testing.assert_array_equal(got, getattr(data, name))
         assert not any(np.shares_memory(got, data.frame[c].to_numpy()) for c in data.frame.columns if c != "trajectory")
     both = TransmissionInputs.from_recordings([data, data])

@@ -19,9 +19,13 @@ __all__ = ["column_block", "concat_frames", "frame_from_arrays"]
 
 
 def column_block(frame: pd.DataFrame, columns: list[str], shape: tuple[int, ...]) -> np.ndarray:
-    """``frame[columns]`` as a fresh C-contiguous float64 array of ``shape`` (missing as NaN)."""
-    a = frame[columns].to_numpy(dtype=np.float64, na_value=np.nan)
-    return np.ascontiguousarray(a).reshape(shape)
+    """``frame[columns]`` as a fresh C-contiguous float64 array of ``shape`` (missing as NaN).
+
+    Never a view of the frame (``to_numpy`` of one block can be one): what does not own its
+    memory is copied, so a caller may keep it without a second copy of its own.
+    """
+    a = np.ascontiguousarray(frame[columns].to_numpy(dtype=np.float64, na_value=np.nan))
+    return (a if a.flags.owndata else a.copy()).reshape(shape)
 
 
 def frame_from_arrays(

@@ -147,7 +147,19 @@ class FrameInputs:
         if start < stop and not self.reset[start]:
             raise ValueError(f"frame {start} does not start a trajectory: a part holds whole trajectories")
         cut = {f: None if getattr(self, f) is None else getattr(self, f)[start:stop] for f in self.frame_fields}
+        for view in cut.values():
+            if view is not None:
+                view.flags.writeable = False  # parts share the whole's memory: none may write to another
         return dataclasses.replace(self, **cut)
+
+    def held_out(self, start: int, stop: int):
+        """``(rest, held)``: frames ``start`` to ``stop - 1`` as a :meth:`part`, and the others.
+
+        The others are a part too where the held-out frames are at an end, else the two parts
+        stacked (:meth:`concat`, one copy): a fold of a blocked cross-validation.
+        """
+        rest = [p for p in (self.part(0, start), self.part(stop, self.n_frames)) if p.n_frames]
+        return type(self).concat(rest), self.part(start, stop)
 
     def window(self, start: int, stop: int):
         """Frames ``start`` to ``stop - 1`` as inputs of views, without copies.

@@ -233,10 +233,8 @@ class TransmissionInputs(FrameInputs):
         clocks = [np.arange(r.n_frames) * dt for r in recs]
 
         def joined(parts):
-            # A recording's block is usually a new array: one recording's is then taken, not copied
-            # again (a view of the recording's frame is copied, so that nothing here aliases it).
-            one = len(parts) == 1 and parts[0].flags.owndata
-            return parts[0] if one else np.concatenate(parts)
+            # A recording's blocks are fresh arrays (column_block): one recording's are taken as they are.
+            return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
         return cls(
             angles=joined([r.angles for r in recs]),

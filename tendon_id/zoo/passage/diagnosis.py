@@ -53,9 +53,7 @@ def file_splits(train: list, test: list | None, folds: int) -> tuple[list[Split]
     edges = np.cumsum([0] + [r.n_frames for r in train])
     splits = []
     for g in groups:
-        a, b = int(edges[g[0]]), int(edges[g[-1] + 1])
-        rest = [p for p in (whole.part(0, a), whole.part(b, whole.n_frames)) if p.n_frames]
-        splits.append(Split(PassageInputs.concat(rest), whole.part(a, b)))
+        splits.append(Split(*whole.held_out(int(edges[g[0]]), int(edges[g[-1] + 1]))))
     return splits, f"{k}-fold cross-validation by file ({len(train)} files)"
 
 

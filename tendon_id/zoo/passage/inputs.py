@@ -86,16 +86,11 @@ class PassageInputs(FrameInputs):
             raise ConfigError(f"the recordings have different sample periods: {sorted(dts)} s")
 
         def joined(parts):
-            # One recording's arrays are its own (views); several are joined into one copy. Read-only
-            # either way: the parts of a diagnosis's splits are views of it (FrameInputs.part).
-            if any(p is None for p in parts):
-                return None
-            out = parts[0] if len(parts) == 1 else np.concatenate(parts)
-            if out.flags.owndata:
-                out.flags.writeable = False
-            return out
+            # One recording's arrays are its own (views); several are joined into one copy.
+            return None if any(p is None for p in parts) else parts[0] if len(parts) == 1 else np.concatenate(parts)
 
         reset = joined([r.trajectory_starts for r in recs])
+        # Read-only views of one recording's columns (the arrays are never written to).
         return cls(
             input=joined([r.column_view("input") for r in recs]),
             output=joined([r.column_view("output") for r in recs]),
@@ -155,6 +150,8 @@ class PassageInputs(FrameInputs):
         def compute():
             sigma, n = self.slip_state(band), self.n_frames
             starts = np.flatnonzero(self.reset)
+            if not starts.size:
+                return np.ones(n, np.int8)
             ends = np.r_[starts[1:], n]
             # The first moving frame at or after each start, found slice by slice (the moving
             # frames of a whole log would be an index per frame).
@@ -168,8 +165,6 @@ class PassageInputs(FrameInputs):
                 found[todo[hit]] = moving[at[hit]]
             own = (found >= 0) & (found < ends)  # in its own trajectory, not a later one
             first_sigma = np.where(own, sigma[np.maximum(found, 0)], 1).astype(np.int8)
-            if not starts.size:
-                return np.ones(n, np.int8)
             # Frames before the first start (none where frame 0 is a reset) read the first trajectory's.
             return np.repeat(first_sigma, np.diff(np.r_[0, starts[1:], n]))
 

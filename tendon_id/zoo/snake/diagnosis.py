@@ -88,9 +88,6 @@ def make_splits(train: list[Recording], test: list[Recording] | None, geometry, 
         When there are fewer trajectories than folds and no test data.
     """
     everything = TransmissionInputs.from_recordings(train + (test or []), geometry)
-    for f in everything.frame_fields:  # the splits are views of it: nothing may write to them
-        if getattr(everything, f) is not None:
-            getattr(everything, f).flags.writeable = False
     n_train = sum(r.n_frames for r in train)
     if test is not None:
         is_train = np.arange(everything.n_frames) < n_train
@@ -115,8 +112,7 @@ def make_splits(train: list[Recording], test: list[Recording] | None, geometry, 
         held = (traj >= group[0]) & (traj <= group[-1])
         a, b = int(np.argmax(held)), len(held) - int(np.argmax(held[::-1]))
         if held[a:b].all():  # the group's frames in one run: parts of everything, views, no copies
-            rest = [p for p in (everything.part(0, a), everything.part(b, len(held))) if p.n_frames]
-            splits.append(Split(TransmissionInputs.concat(rest), everything.part(a, b), noise))
+            splits.append(Split(*everything.held_out(a, b), noise))
         else:  # a trajectory id that comes back later in its file
             splits.append(Split(everything.subset(~held), everything.subset(held), noise))
     return splits, f"{folds}-fold cross-validation by trajectory"
