@@ -46,7 +46,7 @@ import pandas as pd
 
 from tendon_id.checks import check_choice, check_keys
 from tendon_id.data import rules
-from tendon_id.data.io import check_regular_file, first_line, read_frame
+from tendon_id.data.io import check_regular_file, first_line, read_frame, released
 from tendon_id.data.patterns import expand_columns
 from tendon_id.data.rosbag import is_bag, read_bag
 from tendon_id.data.units import DIMENSIONS, si_factor
@@ -381,9 +381,9 @@ def read_files(paths, mapping: DataMapping | None = None) -> list:
         if len(bags) < len(paths):
             other = next(p for p in paths if p not in bags)
             raise RecordingError(f"{mapping.source} names bag topics, but this is no ROS 2 bag", file=str(other))
-        return [read_bag(p, mapping, trajectory=n) for p, n in zip(paths, trajectory_names(paths))]
+        return [released(read_bag(p, mapping, trajectory=n)) for p, n in zip(paths, trajectory_names(paths))]
     if mapping is None:
-        return [read_own(p) for p in paths]
+        return [released(read_own(p)) for p in paths]
     if mapping.trajectory == "file":
-        return [read_mapped(p, mapping, trajectory=n) for p, n in zip(paths, trajectory_names(paths))]
-    return [read_mapped(p, mapping) for p in paths]
+        return [released(read_mapped(p, mapping, trajectory=n)) for p, n in zip(paths, trajectory_names(paths))]
+    return [released(read_mapped(p, mapping)) for p in paths]

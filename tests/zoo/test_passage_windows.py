@@ -93,7 +93,9 @@ def whole_derivations(inputs: PassageInputs, band: float) -> dict:
     idx = moving[np.minimum(at, max(moving.size - 1, 0))] if moving.size else starts
     first_sigma = np.where((at < moving.size) & (first[idx] == starts), sigma[idx], 1).astype(np.int8)
     follower = play_operator(x, band, inputs.reset).log_out
+    step = np.abs(np.diff(x))
     return {
+        "band": 2.0 * float(np.median(step[step > 0])),
         "first_frame": first,
         "since_start": (np.arange(n) - first) * inputs.dt,
         "slip_state": sigma,
@@ -106,10 +108,12 @@ def whole_derivations(inputs: PassageInputs, band: float) -> dict:
 @pytest.mark.parametrize("slice_frames", [1, 37, 1 << 18])
 def test_derived_arrays_in_slices_are_the_whole_computation(monkeypatch, slice_frames):
     from tendon_id.family import inputs as family_inputs
+    from tendon_id.zoo.passage import blocks as passage_blocks
     from tendon_id.zoo.passage import inputs as passage_inputs
 
     monkeypatch.setattr(family_inputs, "SLICE_FRAMES", slice_frames)
     monkeypatch.setattr(passage_inputs, "SLICE_FRAMES", slice_frames)
+    monkeypatch.setattr(passage_blocks, "SLICE_FRAMES", slice_frames)
     recs = [tendon_passage(s, n=300) for s in range(3)]
     still = recs[0].frame.assign(trajectory="still", input=1.0, position=0.0)  # never moves: first motion +1
     recs.append(PassageRecording(still, recs[0].meta))
@@ -123,11 +127,12 @@ def test_derived_arrays_in_slices_are_the_whole_computation(monkeypatch, slice_f
         "first_motion": inputs.first_motion(band),
         "direction": inputs.direction(band),
         "speed": inputs.speed(),
+        "band": passage_blocks.scale_band(inputs),
     }
     a, b = 250, 700  # a window counts from the whole's frames
     np.testing.assert_array_equal(inputs.window(a, b).since_start, want["since_start"][a:b])
     assert not got["slip_state"][-300:].any() and np.all(got["first_motion"][-300:] == 1)  # the still one
     assert got["first_frame"].dtype == np.int32  # an index kept per frame: four bytes where they do
     for key, value in want.items():
-        assert got[key].dtype == value.dtype or key == "first_frame", key
+        assert np.asarray(got[key]).dtype == np.asarray(value).dtype or key == "first_frame", key
         np.testing.assert_array_equal(got[key], value, err_msg=key)

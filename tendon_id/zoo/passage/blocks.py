@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 from friction_models.play_operator import play_output
 from tendon_id.errors import ConfigError
 from tendon_id.family.blocks import BlockRegistry, EffectBlock
+from tendon_id.family.inputs import SLICE_FRAMES
 
 #: Where a block acts, in the order of the forward computation (the module docstring's table).
 PASSAGE_STAGES = ("input", "load", "state", "edge", "sensor")
@@ -344,9 +345,16 @@ def scale_band(inputs) -> float:
     """The deadband of the direction of motion: twice the median non-zero step of the travel."""
 
     def compute():
-        step = np.abs(np.diff(inputs.travel()))
-        step = step[step > 0]
-        return 2.0 * float(np.median(step)) if step.size else 1e-12
+        # The non-zero steps gathered slice by slice into one buffer, their median taken in
+        # place: one whole-length array, not the four of abs(diff(x))[mask] and median's copy.
+        x = inputs.travel()
+        steps, n = np.empty(max(x.size - 1, 0)), 0
+        for a in range(0, x.size - 1, SLICE_FRAMES):
+            part = np.abs(np.diff(x[a : min(a + SLICE_FRAMES, x.size - 1) + 1]))
+            part = part[part > 0]
+            steps[n : n + part.size] = part
+            n += part.size
+        return 2.0 * float(np.median(steps[:n], overwrite_input=True)) if n else 1e-12
 
     return inputs.memo("band", compute)
 
