@@ -12,6 +12,7 @@ from tendon_id import zoo
 from tendon_id.cli import main
 from tendon_id.diagnosis import DiagnosisSettings, diagnose
 from tendon_id.errors import ConfigError
+from tendon_id.family.inputs import Stacked
 from tendon_id.zoo.passage import PassageCapstan, PassageInputs
 from tendon_id.zoo.passage.diagnosis import file_splits, passage_strata
 
@@ -53,20 +54,25 @@ def test_splits_are_by_file_and_strata_cover_every_frame():
 @pytest.mark.parametrize("folds", [2, 3, 5])
 def test_file_splits_are_the_files_inputs_as_parts_of_one_stack(folds):
     """Each side equals the inputs of its files read alone; a fold's sides are views of one stack, and the
-    held-out folds stacked back are that stack itself (issue 42: no copy per fold)."""
+    held-out folds stacked back are that stack itself (issue 42: no copy per fold). A training set on both
+    sides of its held-out files is kept as its two parts, stacked only when read."""
     recs = [tendon_passage(s, n=200 + 50 * s) for s in range(5)]
     splits, _ = file_splits(recs, None, folds=folds)
     groups = np.array_split(np.arange(len(recs)), folds)
     stack = splits[0].test.input.base
     for g, s in zip(groups, splits):
-        for side, files in ((s.test, list(g)), (s.train, [i for i in range(len(recs)) if i not in g])):
+        for side, files in ((s.test, list(g)), (s.training(), [i for i in range(len(recs)) if i not in g])):
             alone = PassageInputs.from_recordings([recs[i] for i in files])
             for f in PassageInputs.frame_fields:
                 np.testing.assert_array_equal(getattr(side, f), getattr(alone, f), err_msg=f)
             np.testing.assert_array_equal(side.direction(0.01), alone.direction(0.01))
         assert np.shares_memory(s.test.input, stack)
         at_an_end = g[0] == 0 or g[-1] == len(recs) - 1
-        assert np.shares_memory(s.train.input, stack) == at_an_end  # a copy only between the ends
+        assert isinstance(s.train, Stacked) != at_an_end  # parts between the ends, stacked when read
+        train = s.training()
+        assert train.n_frames == s.train.n_frames
+        assert np.shares_memory(train.input, stack) == at_an_end  # a copy only between the ends
+        assert at_an_end or s.training().input is not train.input  # made for each reader, kept by none
     heldout = PassageInputs.concat([s.test for s in splits])
     assert heldout.input.base is stack and heldout.n_frames == sum(r.n_frames for r in recs)
     with pytest.raises(ValueError, match="does not start a trajectory"):
@@ -110,3 +116,36 @@ def test_the_cli_diagnoses_bench_files_and_refuses_a_snake_effect(tmp_path, caps
     code = main([*args, "--candidates", "bending_stiffness", "--out", str(tmp_path / "e.html")])
     err = capsys.readouterr().err
     assert code == 2 and "unknown candidate" in err and "stick_slip" in err
+
+
+def test_the_diagnosis_lets_go_of_recordings_passed_on_and_splits_forget_derived_arrays(monkeypatch):
+    """Recordings the caller passed on (as the CLI does) are freed before the refits, which read the
+    stacked signals; each refit leaves its split without derived arrays (issue 42: memory at scale)."""
+    import gc
+    import weakref
+
+    from tendon_id.diagnosis import runner
+
+    made, seen = [], []
+
+    def recordings():
+        recs = [tendon_passage(s, n=300) for s in range(3)]
+        made.extend(weakref.ref(r.frame) for r in recs)  # a recording has no weak references; its data does
+        return recs
+
+    real = runner.refit_and_score
+
+    def watched(family, structure, split, *rest):
+        gc.collect()
+        seen.append(sum(r() is not None for r in made))
+        out = real(family, structure, split, *rest)
+        assert not split.test.cache and (isinstance(split.train, Stacked) or not split.train.cache)
+        return out
+
+    monkeypatch.setattr(runner, "refit_and_score", watched)
+    settings = DiagnosisSettings(n_boot=50, block_s=0.5, null_draws=0)
+    res = diagnose(PassageCapstan(warmup_s=0.2), recordings(), None, ["stick_slip"], settings=settings, progress=False)
+    assert res.validation.startswith("3-fold") and seen and seen == [0] * len(seen)
+    kept = recordings()  # a caller that keeps its recordings keeps them, and gets the same result
+    again = diagnose(PassageCapstan(warmup_s=0.2), kept, None, ["stick_slip"], settings=settings, progress=False)
+    assert again.base_rmse == res.base_rmse and all(r.n_frames == 300 for r in kept)

@@ -122,7 +122,7 @@ def _oracle_null_margin(result, family, base, structure, fit, train, test) -> fl
     draws = result.null_draws
     if draws is None:
         splits, _ = family.splits(family.recordings(train, "train"), family.recordings(test, "test"), s.folds, base)
-        base_fit = family.refit(base, splits[0].train, family.start(base), s.max_nfev)
+        base_fit = family.refit(base, splits[0].training(), family.start(base), s.max_nfev)
         draws = NullDraws.simulate(family, splits, base, [base_fit], s, np.random.default_rng(s.seed))
     return None if draws is None else draws.gain((), structure, [fit], 1 - s.alpha).margin
 

@@ -120,11 +120,12 @@ def diagnose(
     check_base(model)
     names = candidate_names(candidates, model.family.blocks)
     check_held_out(data or [], test)
-    train = read_all(data, mapping)
-    held = read_all(test, mapping, param="test") if test else None
+    recordings = {"train": read_all(data, mapping), "test": read_all(test, mapping, param="test") if test else None}
     with js.lines():
         with stage("diagnose"):
-            result = run(model, train, held, names, settings=DiagnosisSettings(seed=seed), n_jobs=jobs)
+            # Passed on, not kept here: the diagnosis lets go of them once their signals are stacked.
+            settings = DiagnosisSettings(seed=seed)
+            result = run(model, recordings.pop("train"), recordings.pop("test"), names, settings=settings, n_jobs=jobs)
         wrote = report_written(write_report, result, out, js)
         typer.echo(result.summary())
         typer.echo(wrote)

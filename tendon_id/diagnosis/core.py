@@ -114,6 +114,10 @@ def diagnose(
                 skipped[n] = f"needs the {', '.join(missing)} column, which the data lack"
         names = [n for n in names if n not in skipped]
     splits, validation = family.splits(train_recs, test_recs, settings.folds, base)
+    # Nothing past here reads the recordings: a caller that passed them on (the CLI) frees them for
+    # the refits, which read the splits' stacked signals.
+    truth, held_given = simulator_truth(train_recs[0]), test_recs is not None
+    train = test = train_recs = test_recs = full = None
     rng = np.random.default_rng(settings.seed)
     heldout = type(splits[0].test).concat([s.test for s in splits])
     block = max(int(round(settings.block_s / heldout.dt)), 1)
@@ -133,7 +137,7 @@ def diagnose(
         {n: f"refines {', '.join(family.blocks[n].requires)}: tried on the ladder once that is in" for n in later}
     )
     names = [n for n in names if n not in later]
-    full_train = splits[0].train if test_recs is not None else heldout  # CV: the held-out folds are all of it
+    full_train = splits[0].training() if held_given else heldout  # CV: the held-out folds are all of it
     blocks = family.candidates(base, full_train, names)
     clash = [n for n, b in blocks.items() if not composes(base, [b])]
     skipped.update({n: "does not compose with the base's blocks" for n in clash})
@@ -173,6 +177,8 @@ def diagnose(
     where = gap_map(
         heldout, e0, family.strata(heldout), block=block, n_boot=settings.n_boot, level=1 - settings.alpha, rng=rng
     )
+    if hasattr(heldout, "forget"):  # its derived arrays, computed again if the end's noise floor needs them
+        heldout.forget()
 
     # How far: the ladder.
     def remaining(chosen: list[str]) -> list[str]:
@@ -192,7 +198,7 @@ def diagnose(
         block=block,
         rng=rng,
         remaining=remaining,
-        screen=lambda score, cands: screen(family, score, splits[0].train, cands, all_blocks),
+        screen=lambda score, cands: screen(family, score, splits[0].training(), cands, all_blocks),
         extend=lambda structure, e: structure.with_blocks(all_blocks[e]),
         start=lambda model, single, k: family.merge(model, single.fits[k].model if single is not None else None),
         min_gain=family.min_rung_gain if settings.min_rung_gain is None else settings.min_rung_gain,
@@ -241,7 +247,7 @@ def diagnose(
         heldout_frames=heldout.n_frames,
         base=base.name,
         validation=validation,
-        n_train=int(splits[0].train.n_frames),
+        n_train=int(splits[0].train.n_frames),  # a Stacked counts its frames without stacking them
         where=where,
         skipped=skipped,
         ladder=ladder,
@@ -249,7 +255,7 @@ def diagnose(
         model=run.score.fits[0].model,
         seconds=time.perf_counter() - t0,
         unit=unit,
-        truth=simulator_truth(train_recs[0]),
+        truth=truth,
         null_gains=null,
         null_draws=draws,
     )

@@ -29,15 +29,26 @@ class Score:
     residual: NDArray
 
 
-def refit_and_score(family, structure, train, test, start, max_nfev: int, tol=None) -> tuple[Fit, NDArray]:
-    """One job: refit ``structure`` on ``train`` from ``start``, and its residual on ``test``."""
-    # A family written before ``tol`` existed takes four arguments: ask for a tolerance only when one is set.
-    fit = (
-        family.refit(structure, train, start, max_nfev)
-        if tol is None
-        else family.refit(structure, train, start, max_nfev, tol=tol)
-    )
-    return fit, family.residual(fit.model, test)
+def refit_and_score(family, structure, split, start, max_nfev: int, tol=None) -> tuple[Fit, NDArray]:
+    """One job: refit ``structure`` on ``split``'s training inputs from ``start``, its residual on the held-out ones.
+
+    A training set of parts is stacked for this job only (:meth:`~tendon_id.diagnosis.splits.Split.training`),
+    and both sides forget their derived arrays afterwards: a diagnosis holds its splits for its
+    whole run, and their derived arrays would be a few bytes per frame for each of them.
+    """
+    train = split.training()
+    try:
+        # A family written before ``tol`` existed takes four arguments: ask for a tolerance only when one is set.
+        fit = (
+            family.refit(structure, train, start, max_nfev)
+            if tol is None
+            else family.refit(structure, train, start, max_nfev, tol=tol)
+        )
+        return fit, family.residual(fit.model, split.test)
+    finally:
+        for inputs in (train, split.test):
+            if hasattr(inputs, "forget"):  # a family's own inputs may keep no derived arrays
+                inputs.forget()
 
 
 class Scorer:
@@ -67,7 +78,7 @@ class Scorer:
     def score(self, structures: list, starts: list[list[tuple]], desc: str) -> list[Score]:
         """Refit each structure on each split from ``starts[structure][split]``."""
         jobs = [
-            (self.family, structure, split.train, split.test, starts[i][k], self.settings.max_nfev, self.tol)
+            (self.family, structure, split, starts[i][k], self.settings.max_nfev, self.tol)
             for i, structure in enumerate(structures)
             for k, split in enumerate(self.splits)
         ]

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["SLICE_FRAMES", "FrameInputs", "WindowCache", "adjacent_view", "by_slices"]
+__all__ = ["SLICE_FRAMES", "FrameInputs", "Stacked", "WindowCache", "adjacent_view", "by_slices", "stacked"]
 
 #: Frames of one slice where a derived array is computed piecewise (:func:`by_slices`): its
 #: temporaries stay a few MiB however long the log (an hour at 1 kHz is 3.6e6 frames).
@@ -155,11 +155,20 @@ class FrameInputs:
     def held_out(self, start: int, stop: int):
         """``(rest, held)``: frames ``start`` to ``stop - 1`` as a :meth:`part`, and the others.
 
-        The others are a part too where the held-out frames are at an end, else the two parts
-        stacked (:meth:`concat`, one copy): a fold of a blocked cross-validation.
+        The others are a part too where the held-out frames are at an end, else the two parts as
+        a :class:`Stacked`, copied into one only when read (:func:`stacked`): a fold of a blocked
+        cross-validation whose training set exists only while it is fitted.
         """
         rest = [p for p in (self.part(0, start), self.part(stop, self.n_frames)) if p.n_frames]
-        return type(self).concat(rest), self.part(start, stop)
+        return (Stacked(tuple(rest)) if len(rest) > 1 else type(self).concat(rest)), self.part(start, stop)
+
+    def forget(self) -> None:
+        """Drop the derived arrays (:meth:`memo`): they are computed again when next read.
+
+        A diagnosis forgets a split's after each refit, so that its splits do not keep a few
+        bytes per frame each for the whole run.
+        """
+        self.cache.clear()
 
     def window(self, start: int, stop: int):
         """Frames ``start`` to ``stop - 1`` as inputs of views, without copies.
@@ -189,6 +198,28 @@ class FrameInputs:
             return np.concatenate(arrays) if adjacent is None else adjacent
 
         return dataclasses.replace(parts[0], **{f: joined(f) for f in cls.frame_fields})
+
+
+@dataclasses.dataclass(frozen=True)
+class Stacked:
+    """Parts of one inputs (:meth:`FrameInputs.part`), to be stacked in time when read.
+
+    The training set of a fold whose held-out frames lie in the middle is two parts; stacking
+    them is a copy of most of the data, so it is made by :func:`stacked` for the refit that reads
+    it and freed with it, not kept for the whole diagnosis.
+    """
+
+    parts: tuple
+
+    @property
+    def n_frames(self) -> int:
+        """int : Frames ``T`` the stacked inputs will have."""
+        return sum(p.n_frames for p in self.parts)
+
+
+def stacked(inputs):
+    """``inputs`` as a family's inputs: a :class:`Stacked` is stacked now (a copy), anything else is returned."""
+    return type(inputs.parts[0]).concat(list(inputs.parts)) if isinstance(inputs, Stacked) else inputs
 
 
 def adjacent_view(arrays: Sequence[NDArray]) -> NDArray | None:

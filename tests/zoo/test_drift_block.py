@@ -9,6 +9,7 @@ from tendon_id import zoo
 from tendon_id.datasets import load_recipe
 from tendon_id.diagnosis.splits import Split
 from tendon_id.errors import ConfigError
+from tendon_id.family.inputs import Stacked
 from tendon_id.sim import Effects, Sensors, simulate
 from tendon_id.sliding import guide_sliding_distance
 from tendon_id.zoo.blocks import ContactGate, RoutingWrap, as_block, block_from_dict
@@ -189,9 +190,10 @@ def test_trajectory_splits_are_the_masked_subsets_as_views_of_one_session(folds)
     assert how == f"{folds}-fold cross-validation by trajectory"
     ids = np.concatenate([np.char.add(f"{k}/", r.trajectory_ids) for k, r in enumerate(recs)])
     _, first = np.unique(ids, return_index=True)
-    for group, s in zip(np.array_split(ids[np.sort(first)], folds), splits):
+    for k, (group, s) in enumerate(zip(np.array_split(ids[np.sort(first)], folds), splits)):
+        assert isinstance(s.train, Stacked) == (0 < k < folds - 1)  # parts on both sides, stacked when read
         held = np.isin(ids, group)  # the former construction, by the trajectories' text
-        for side, mask in ((s.test, held), (s.train, ~held)):
+        for side, mask in ((s.test, held), (s.training(), ~held)):
             want = whole.subset(mask)
             for f in TransmissionInputs.frame_fields:
                 np.testing.assert_array_equal(getattr(side, f), getattr(want, f), err_msg=f)

@@ -227,7 +227,7 @@ def simulate_null(sensors: MeasurementNoise | None, model, split: Split, rng, dr
         return None
     law = (model.A_, model.B_, model.block_params_)
     parts = []
-    for inputs in (split.train, split.test):
+    for inputs in (split.training(), split.test):
         clean = clean_estimates(sensors, inputs)
         parts.append((clean, model.terminal_reading(clean, *law)))
 
