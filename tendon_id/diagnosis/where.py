@@ -92,7 +92,8 @@ def quartile_masks(
     if at_least.mean() > 0.25:
         out.append((least or f"{label} = {lo * scale:.3g} {unit}", at_least))
         rest = ~at_least
-    edges = np.nanquantile(x[rest], [0.0, 0.25, 0.5, 0.75, 1.0])
+    # x[rest] is a copy of our own: the quantiles may partition it in place, not copy it again.
+    edges = np.nanquantile(x[rest], [0.0, 0.25, 0.5, 0.75, 1.0], overwrite_input=True)
     for q in range(4):
         a, b = edges[q], edges[q + 1]
         mask = rest & (x >= a) & ((x < b) if q < 3 else (x <= b))
@@ -109,8 +110,9 @@ def gap_map(inputs, residual: NDArray, masks, *, block: int, n_boot: int, level:
         Held-out data.
     residual : ndarray, shape (T, C)
         Measured minus predicted reading of the base, NaN in its warm-up.
-    masks : list of (name, kind, mask)
-        The family's strata (:meth:`~tendon_id.family.Family.strata`); a mask has shape (T,) or (T, C).
+    masks : iterable of (name, kind, mask)
+        The family's strata (:meth:`~tendon_id.family.Family.strata`), read once, in order; a
+        mask has shape (T,) or (T, C).
     block : int
         Bootstrap block length [frames].
     """

@@ -35,7 +35,7 @@ A model class and a recording class name their family in their ``family`` attrib
 from __future__ import annotations
 
 import abc
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any, ClassVar
 
 from tendon_id.errors import ConfigError
@@ -144,8 +144,11 @@ class Family(abc.ABC):
         return {e: self.blocks[e]() for e in effects}
 
     @abc.abstractmethod
-    def strata(self, inputs) -> list[tuple[str, str, Any]]:
-        """``(name, kind, mask)`` of the strata of the gap map; masks of shape (T,) or (T, C)."""
+    def strata(self, inputs) -> Iterable[tuple[str, str, Any]]:
+        """``(name, kind, mask)`` of the strata of the gap map; masks of shape (T,) or (T, C).
+
+        Read once, in order: a generator may make each mask only when it is read.
+        """
 
     @abc.abstractmethod
     def signatures(self, structure, fitted, inputs, blocks: dict):

@@ -73,22 +73,28 @@ def residual(model, inputs: PassageInputs) -> NDArray:
     return e[:, None]
 
 
-def passage_strata(inputs: PassageInputs) -> list[tuple[str, str, NDArray]]:
-    """``(name, kind, mask)`` of a bench's strata: near reversals, load, speed, position, time since start."""
+def passage_strata(inputs: PassageInputs):
+    """Yield ``(name, kind, mask)`` of a bench's strata: near reversals, load, speed, position, time since start.
+
+    Made one kind at a time as they are read, so that a bool per frame is held for one kind's
+    masks, not all eighteen (and their variables) at once: 3.6·10^6 frames each at an hour.
+    """
     x = inputs.travel()
     band = REVERSAL_SHARE * float(np.ptp(x))
     stuck = play_operator(x, band, inputs.reset).sigma == 0 if band > 0 else np.zeros(x.shape, bool)
-    out = [("near reversals", "reversal", stuck), ("away from reversals", "reversal", ~stuck)]
+    yield "near reversals", "reversal", stuck
+    yield "away from reversals", "reversal", ~stuck
+    del stuck
     unit = UNITS[inputs.quantity]
-    out += [(n, "load", m) for n, m in quartile_masks(np.abs(inputs.output), "output load", unit)]
+    yield from ((n, "load", m) for n, m in quartile_masks(np.abs(inputs.output), "output load", unit))
     speed = np.abs(inputs.speed())
     rest = "input at rest" if speed.min() == 0 else None
-    out += [(n, "speed", m) for n, m in quartile_masks(speed, "input speed", "rad/s", least=rest)]
+    yield from ((n, "speed", m) for n, m in quartile_masks(speed, "input speed", "rad/s", least=rest))
+    del speed
     if inputs.position is not None:
         angle = inputs.position_out if inputs.position_out is not None else inputs.position
-        out += [(n, "position", m) for n, m in quartile_masks(angle, "position", "rad")]
-    out += [(n, "start", m) for n, m in quartile_masks(inputs.since_start, "time since log start", "s")]
-    return out
+        yield from ((n, "position", m) for n, m in quartile_masks(angle, "position", "rad"))
+    yield from ((n, "start", m) for n, m in quartile_masks(inputs.since_start, "time since log start", "s"))
 
 
 def signatures(fitted, inputs: PassageInputs, blocks: dict) -> Library:
@@ -96,10 +102,10 @@ def signatures(fitted, inputs: PassageInputs, blocks: dict) -> Library:
     scale = data_scales(inputs)
     theta = fitted.theta_
     base = fitted.reading(inputs, theta)
-    labels, cols = [], []
-    for e, block in blocks.items():
+    labels = list(blocks)
+    columns = np.empty((inputs.n_frames, 1, len(labels)))  # filled column by column: no list to stack
+    for k, (e, block) in enumerate(blocks.items()):
         probe = {f"{e}:{p}": v for p, v in block.probe(scale).items()}
-        cols.append(fitted.with_blocks(block).reading(inputs, {**theta, **probe}) - base)
-        labels.append(e)
-    columns = np.stack(cols, axis=-1)[:, None, :] if cols else np.zeros((inputs.n_frames, 1, 0))
+        columns[:, 0, k] = fitted.with_blocks(block).reading(inputs, {**theta, **probe})
+        columns[:, 0, k] -= base
     return Library(labels, list(labels), columns)
