@@ -31,6 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from tendon_id.checks import check_jobs
+from tendon_id.data.io import released
 from tendon_id.diagnosis.calibrate import calibrated_margins
 from tendon_id.diagnosis.ladder import climb
 from tendon_id.diagnosis.library import candidate_names
@@ -118,6 +119,7 @@ def diagnose(
     # the refits, which read the splits' stacked signals.
     truth, held_given = simulator_truth(train_recs[0]), test_recs is not None
     train = test = train_recs = test_recs = full = None
+    released(None)  # their text columns lived in Arrow's allocator: give that memory back now
     rng = np.random.default_rng(settings.seed)
     heldout = type(splits[0].test).concat([s.test for s in splits])
     block = max(int(round(settings.block_s / heldout.dt)), 1)

@@ -21,7 +21,9 @@ def block_bootstrap_means(x: NDArray, block: int, n_boot: int, rng: np.random.Ge
     block = int(min(max(block, 1), n))
     n_blocks = -(-n // block)
     # Block sums by cumulative sums: each resample is a sum of n_blocks block sums (the last trimmed).
-    csum = np.r_[0.0, np.cumsum(x)]
+    csum = np.empty(n + 1)  # [0, cumsum(x)] in one array, not a cumsum and its copy
+    csum[0] = 0.0
+    np.cumsum(x, out=csum[1:])
     starts = rng.integers(0, n - block + 1, size=(n_boot, n_blocks))
     sums = csum[starts + block] - csum[starts]
     last = n - block * (n_blocks - 1)

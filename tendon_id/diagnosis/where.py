@@ -116,25 +116,30 @@ def gap_map(inputs, residual: NDArray, masks, *, block: int, n_boot: int, level:
     block : int
         Bootstrap block length [frames].
     """
-    sq = residual**2
-    total = float(np.nansum(sq))
-    n_all = int(np.isfinite(residual).sum())
-    rows = []
+    # Whole-length temporaries are made one at a time: at an hour of 1 kHz each is 27 MiB a channel.
+    total = float(np.nansum(residual**2))
     valid = np.isfinite(residual)  # NaN in the model's warm-up
+    n_all = int(valid.sum())
+    rows = []
     for name, kind, mask in masks:
         m = np.broadcast_to(mask if mask.ndim == 2 else mask[:, None], residual.shape) & valid
         if not m.any():
             continue
         frames = m.any(axis=1)
-        per_frame = np.nanmean(np.where(m, residual, np.nan)[frames], axis=1)  # mean bias of each frame
+        w = m[frames]
+        # Each frame's mean bias over its channels in the stratum: nanmean's sum and count, without its copies.
+        per_frame = np.where(w, residual[frames], 0.0).sum(axis=1) / w.sum(axis=1, dtype=np.intp)
+        del w, frames
         ci = bootstrap_ci(per_frame, block, n_boot, level, rng)
+        del per_frame
+        picked = residual[m]
         rows.append(
             Stratum(
                 stratum=name,
                 kind=kind,
-                share_error=float(np.nansum(sq[m]) / total) if total > 0 else 0.0,
+                share_error=float(np.nansum(picked**2) / total) if total > 0 else 0.0,
                 share_frames=float(m.sum() / n_all),
-                bias=float(np.nanmean(residual[m])),
+                bias=float(np.nanmean(picked)),
                 bias_ci=ci,
             )
         )
