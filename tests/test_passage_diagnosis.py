@@ -119,8 +119,8 @@ def test_the_cli_diagnoses_bench_files_and_refuses_a_snake_effect(tmp_path, caps
 
 
 def test_the_diagnosis_lets_go_of_recordings_passed_on_and_splits_forget_derived_arrays(monkeypatch):
-    """Recordings the caller passed on (as the CLI does) are freed before the refits, which read the
-    stacked signals; each refit leaves its split without derived arrays (issue 42: memory at scale)."""
+    """Recordings the caller passed on (as the CLI does) are freed before the base is fitted and refitted,
+    on the stacked signals; each refit leaves its split without derived arrays (issue 42: memory at scale)."""
     import gc
     import weakref
 
@@ -143,9 +143,23 @@ def test_the_diagnosis_lets_go_of_recordings_passed_on_and_splits_forget_derived
         return out
 
     monkeypatch.setattr(runner, "refit_and_score", watched)
+    fit = PassageCapstan.fit
+
+    def fit_watched(self, data):
+        seen.append(("base fit", isinstance(data, PassageInputs), sum(r() is not None for r in made)))
+        return fit(self, data)
+
+    monkeypatch.setattr(PassageCapstan, "fit", fit_watched)
     settings = DiagnosisSettings(n_boot=50, block_s=0.5, null_draws=0)
     res = diagnose(PassageCapstan(warmup_s=0.2), recordings(), None, ["stick_slip"], settings=settings, progress=False)
-    assert res.validation.startswith("3-fold") and seen and seen == [0] * len(seen)
+    # The unfitted base is fitted on the stacked signals too, once the recordings are gone.
+    assert res.validation.startswith("3-fold") and seen[0] == ("base fit", True, 0)
+    assert len(seen) > 1 and seen[1:] == [0] * (len(seen) - 1)
+    seen.clear()
     kept = recordings()  # a caller that keeps its recordings keeps them, and gets the same result
     again = diagnose(PassageCapstan(warmup_s=0.2), kept, None, ["stick_slip"], settings=settings, progress=False)
     assert again.base_rmse == res.base_rmse and all(r.n_frames == 300 for r in kept)
+    # The stacked signals are the recordings' arrays: the base fits to the same bits either way.
+    splits, _ = file_splits(kept, None, folds=3)
+    on_stack = PassageCapstan(warmup_s=0.2).fit(PassageInputs.concat([s.test for s in splits]))
+    assert on_stack.theta_ == PassageCapstan(warmup_s=0.2).fit(kept).theta_

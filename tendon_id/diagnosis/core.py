@@ -102,7 +102,7 @@ def diagnose(
     names = candidate_names(candidates, family.blocks)
     train_recs = family.recordings(train, "train")
     test_recs = family.recordings(test, "test") if test is not None else None
-    if not base.is_fitted:
+    if not base.is_fitted and family.splits_read_the_fit:
         base = base.fit(train_recs)
     in_base = family.effects(base)
     skipped = {n: "already in the base" for n in names if n in in_base}
@@ -122,6 +122,10 @@ def diagnose(
     released(None)  # their text columns lived in Arrow's allocator: give that memory back now
     rng = np.random.default_rng(settings.seed)
     heldout = type(splits[0].test).concat([s.test for s in splits])
+    if not base.is_fitted:  # on the stacked signals, the same arrays, with the recordings let go
+        base = base.fit(splits[0].training() if held_given else heldout)  # CV: the held-out folds are all of it
+        if hasattr(heldout, "forget"):
+            heldout.forget()
     block = max(int(round(settings.block_s / heldout.dt)), 1)
     scorer = Scorer(family, splits, settings, n_jobs=n_jobs, progress=progress)
 

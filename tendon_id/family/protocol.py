@@ -64,6 +64,10 @@ class Family(abc.ABC):
     predict_methods : tuple of str
         The model methods that predict (all must raise ``NotFittedError`` before ``fit`` and
         have no side effects).
+    splits_read_the_fit : bool
+        Whether :meth:`splits` reads the fitted base (the snake chain's geometry). Where it does
+        not, the diagnosis fits an unfitted base on the splits' stacked signals, after letting go
+        of the recordings, rather than on the recordings.
     """
 
     name: ClassVar[str] = ""
@@ -72,6 +76,7 @@ class Family(abc.ABC):
     blocks: ClassVar[BlockRegistry]
     min_rung_gain: ClassVar[float] = 0.0
     predict_methods: ClassVar[tuple[str, ...]] = ("predict",)
+    splits_read_the_fit: ClassVar[bool] = True
 
     def __repr__(self) -> str:
         return f"<{self.title or self.name} family>"

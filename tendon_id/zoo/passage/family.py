@@ -35,6 +35,7 @@ class PassageFamily(Family):
     # A block whose parameter fits to its neutral value leaves the model as it was, and the
     # refit's slack can still lower the held-out error by a consistent 1e-9 of it.
     min_rung_gain = 0.01
+    splits_read_the_fit = False  # by file, whatever the base
 
     def inputs(self, data, model=None) -> PassageInputs:
         if model is not None:
