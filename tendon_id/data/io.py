@@ -41,6 +41,7 @@ __all__ = [
     "check_csv_header",
     "read_frame",
     "read_parquet",
+    "release_arrow_memory",
     "released",
     "read_csv",
     "write_frame",
@@ -257,8 +258,8 @@ def read_columns(path: Path, schema) -> pd.DataFrame:
     return pd.DataFrame(columns, columns=names, copy=False)
 
 
-def released(recording):
-    """``recording``, after Arrow's allocator has given back the memory it no longer uses.
+def release_arrow_memory() -> None:
+    """Have Arrow's allocator give back the memory it no longer uses.
 
     pandas' text columns live in Arrow's allocator (mimalloc), and so do the temporaries of
     checking them (factorizing the trajectory ids): freed, they stay mapped until released,
@@ -266,6 +267,11 @@ def released(recording):
     """
     if "pyarrow" in sys.modules:  # nothing to give back where nothing used Arrow
         sys.modules["pyarrow"].default_memory_pool().release_unused()
+
+
+def released(recording):
+    """``recording``, once it is read: :func:`release_arrow_memory` after each file."""
+    release_arrow_memory()
     return recording
 
 

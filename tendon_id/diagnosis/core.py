@@ -31,7 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from tendon_id.checks import check_jobs
-from tendon_id.data.io import released
+from tendon_id.data.io import release_arrow_memory
 from tendon_id.diagnosis.calibrate import calibrated_margins
 from tendon_id.diagnosis.ladder import climb
 from tendon_id.diagnosis.library import candidate_names
@@ -43,6 +43,7 @@ from tendon_id.diagnosis.verdict import decide, parsimonious_lead, read_ladder, 
 from tendon_id.diagnosis.where import gap_map
 from tendon_id.errors import ConfigError
 from tendon_id.family.fit import Fit
+from tendon_id.family.inputs import forget
 from tendon_id.family.registry import family_of
 
 __all__ = ["check_base", "diagnose"]
@@ -119,13 +120,12 @@ def diagnose(
     # the refits, which read the splits' stacked signals.
     truth, held_given = simulator_truth(train_recs[0]), test_recs is not None
     train = test = train_recs = test_recs = full = None
-    released(None)  # their text columns lived in Arrow's allocator: give that memory back now
+    release_arrow_memory()  # their text columns lived in Arrow's allocator
     rng = np.random.default_rng(settings.seed)
     heldout = type(splits[0].test).concat([s.test for s in splits])
     if not base.is_fitted:  # on the stacked signals, the same arrays, with the recordings let go
         base = base.fit(splits[0].training() if held_given else heldout)  # CV: the held-out folds are all of it
-        if hasattr(heldout, "forget"):
-            heldout.forget()
+        forget(heldout)
     block = max(int(round(settings.block_s / heldout.dt)), 1)
     scorer = Scorer(family, splits, settings, n_jobs=n_jobs, progress=progress)
 
@@ -183,8 +183,7 @@ def diagnose(
     where = gap_map(
         heldout, e0, family.strata(heldout), block=block, n_boot=settings.n_boot, level=1 - settings.alpha, rng=rng
     )
-    if hasattr(heldout, "forget"):  # its derived arrays, computed again if the end's noise floor needs them
-        heldout.forget()
+    forget(heldout)  # its derived arrays, computed again if the end's noise floor needs them
 
     # How far: the ladder.
     def remaining(chosen: list[str]) -> list[str]:

@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from tendon_id.checks import check_choices
 from tendon_id.errors import ConfigError
+from tendon_id.family.inputs import SLICE_FRAMES
 
 #: STLSQ threshold on standardised coefficients: a column must move the standardised
 #: residual by 5 % of its spread per standard deviation to stay in the model.
@@ -143,8 +144,6 @@ def _moments(X: NDArray, y: NDArray):
     Two passes over slices of :data:`~tendon_id.family.inputs.SLICE_FRAMES` rows (the means, then the
     centred sums, as ``np.std`` centres before it squares).
     """
-    from tendon_id.family.inputs import SLICE_FRAMES
-
     c = X.shape[1]
     slices = [slice(a, a + SLICE_FRAMES) for a in range(0, len(y), SLICE_FRAMES)]
     n, sx, sy = 0, np.zeros(c), 0.0

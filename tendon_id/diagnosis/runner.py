@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 
 from tendon_id.diagnosis.stats import bootstrap_ci, improvement_ci
 from tendon_id.family.fit import Fit
+from tendon_id.family.inputs import forget
 from tendon_id.progress import progress_bar
 
 
@@ -46,9 +47,7 @@ def refit_and_score(family, structure, split, start, max_nfev: int, tol=None) ->
         )
         return fit, family.residual(fit.model, split.test)
     finally:
-        for inputs in (train, split.test):
-            if hasattr(inputs, "forget"):  # a family's own inputs may keep no derived arrays
-                inputs.forget()
+        forget(train, split.test)
 
 
 class Scorer:

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["SLICE_FRAMES", "FrameInputs", "Stacked", "WindowCache", "adjacent_view", "by_slices", "stacked"]
+__all__ = ["SLICE_FRAMES", "FrameInputs", "Stacked", "WindowCache", "adjacent_view", "by_slices", "forget", "stacked"]
 
 #: Frames of one slice where a derived array is computed piecewise (:func:`by_slices`): its
 #: temporaries stay a few MiB however long the log (an hour at 1 kHz is 3.6e6 frames).
@@ -220,6 +220,16 @@ class Stacked:
 def stacked(inputs):
     """``inputs`` as a family's inputs: a :class:`Stacked` is stacked now (a copy), anything else is returned."""
     return type(inputs.parts[0]).concat(list(inputs.parts)) if isinstance(inputs, Stacked) else inputs
+
+
+def forget(*inputs) -> None:
+    """Drop the derived arrays of each of ``inputs`` that keeps them (:meth:`FrameInputs.forget`).
+
+    A family's own inputs need not be :class:`FrameInputs`; those that keep nothing are left as they are.
+    """
+    for x in inputs:
+        if isinstance(x, FrameInputs):
+            x.forget()
 
 
 def adjacent_view(arrays: Sequence[NDArray]) -> NDArray | None:
