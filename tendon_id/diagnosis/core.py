@@ -35,6 +35,7 @@ from tendon_id.data.io import release_arrow_memory
 from tendon_id.diagnosis.calibrate import calibrated_margins
 from tendon_id.diagnosis.ladder import climb
 from tendon_id.diagnosis.library import candidate_names
+from tendon_id.diagnosis.moments import nan_mean_square
 from tendon_id.diagnosis.result import CandidateResult, DiagnosisResult
 from tendon_id.diagnosis.runner import Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
@@ -132,7 +133,7 @@ def diagnose(
     # Base, refitted per split from its own fit.
     base_score = scorer.score([base], [[family.start(base)] * len(splits)], "refit base")[0]
     e0 = base_score.residual
-    mse0 = float(np.nanmean(e0**2))
+    mse0 = nan_mean_square(e0)
     floor_sim = family.noise_floor(splits[0], base_score.fits[0].model, heldout, e0, rng, settings)
     floor = floor_sim.rmse
 
@@ -157,7 +158,7 @@ def diagnose(
     results = []
     for (effect, blk), sc in zip(blocks.items(), scores):
         ci = scorer.improvement_ci(e0, sc.residual, block, level, rng)
-        mse = float(np.nanmean(sc.residual**2))
+        mse = nan_mean_square(sc.residual)
         params = family.block_values(sc.fits[0].model, blk)
         results.append(
             CandidateResult(
@@ -177,9 +178,7 @@ def diagnose(
     order = sorted(range(len(results)), key=lambda i: results[i].heldout_rmse)
     ranked = [results[i] for i in order]
 
-    # Where, and the library of signatures on the held-out frames.
-    law = base_score.fits[0].model  # the signatures are shapes, not magnitudes: one split's law will do
-    library = family.signatures(base, law, heldout, blocks)
+    # Where, on the held-out frames.
     where = gap_map(
         heldout, e0, family.strata(heldout), block=block, n_boot=settings.n_boot, level=1 - settings.alpha, rng=rng
     )
@@ -243,6 +242,13 @@ def diagnose(
         unit=unit, margins=margins, end_floor=end_floor,
     )  # fmt: skip
     verdict = with_rivals(verdict, ranked, settings)
+    # The library of signatures last: its columns (a whole-length array per candidate) are not held
+    # through the ladder's refits, nor beside the candidates' residuals, which are let go first (only
+    # the base's is reported). The signatures are shapes, not magnitudes: one split's law will do.
+    final_model, law = run.score.fits[0].model, base_score.fits[0].model
+    run = scores = base_score = None
+    library = family.signatures(base, law, heldout, blocks)
+    forget(heldout)
     return DiagnosisResult.assemble(
         residual=e0,
         floor=floor_sim,
@@ -257,7 +263,7 @@ def diagnose(
         skipped=skipped,
         ladder=ladder,
         verdict=verdict,
-        model=run.score.fits[0].model,
+        model=final_model,
         seconds=time.perf_counter() - t0,
         unit=unit,
         truth=truth,

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tendon_id.diagnosis.moments import nan_mean_square
 from tendon_id.diagnosis.result import CandidateResult, Rung
 from tendon_id.diagnosis.runner import Score, Scorer
 from tendon_id.diagnosis.settings import DiagnosisSettings
@@ -101,10 +102,10 @@ def climb(
         singles = [first[e][1] if e in first else None for e in trial]
         starts = [[start(f.model, single, k) for k, f in enumerate(score.fits)] for single in singles]
         trial_scores = scorer.score(structs, starts, f"ladder rung {len(out.chosen) + 1}")
-        best = int(np.argmin([np.nanmean(s.residual**2) for s in trial_scores]))
+        best = int(np.argmin([nan_mean_square(s.residual) for s in trial_scores]))
         level = 1 - 2 * settings.alpha / len(trial)
         ci = scorer.improvement_ci(score.residual, trial_scores[best].residual, block, level, rng)
-        mse = float(np.nanmean(trial_scores[best].residual ** 2))
+        mse = nan_mean_square(trial_scores[best].residual)
         closed = gap_closed(mse0, mse, floor)
         if not ci[0] > 0 or (min_gain > 0 and closed - ladder[-1].gap_closed < min_gain):
             break

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tendon_id.checks import check_choices
+from tendon_id.diagnosis.moments import nan_pearson
 from tendon_id.errors import ConfigError
 from tendon_id.family.inputs import SLICE_FRAMES
 
@@ -65,14 +66,8 @@ class Library:
 
     def correlations(self, residual: NDArray) -> dict[str, float]:
         """Pearson correlation of the residual with each column, over frames and tendons."""
-        y = residual.ravel()
-        out = {}
-        for c, label in enumerate(self.labels):
-            x = self.columns[..., c].ravel()
-            ok = np.isfinite(x) & np.isfinite(y)
-            sx, sy = np.std(x[ok]), np.std(y[ok])
-            out[label] = float(np.corrcoef(x[ok], y[ok])[0, 1]) if sx > 0 and sy > 0 else 0.0
-        return out
+        # Slice by slice (moments.nan_pearson): no copies of the column and the residual per frame.
+        return {label: nan_pearson(self.columns[..., c], residual) for c, label in enumerate(self.labels)}
 
     def effect_correlation(self, residual: NDArray) -> dict[str, float]:
         """Per effect, the largest absolute correlation of its columns with the residual."""

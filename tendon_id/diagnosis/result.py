@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tendon_id.diagnosis.moments import nan_mean_square
 from tendon_id.diagnosis.where import Stratum
 
 VERDICT_KINDS = ("none", "explained", "partial", "family", "unexplained")
@@ -223,7 +224,7 @@ class DiagnosisResult:
             if c.at_bound
         ]
         return cls(
-            base_rmse=float(np.sqrt(np.nanmean(residual**2))),
+            base_rmse=float(np.sqrt(nan_mean_square(residual))),
             noise_floor=floor.rmse,
             noise_floor_upper=floor.upper,
             noise_source=floor.source,

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.diagnosis.stats import bootstrap_ci, improvement_ci
+from tendon_id.diagnosis.stats import bootstrap_ci, frame_mean_squares, improvement_ci
 from tendon_id.family.fit import Fit
 from tendon_id.family.inputs import forget
 from tendon_id.progress import progress_bar
@@ -101,5 +101,6 @@ class Scorer:
 
     def excess_ci(self, e: NDArray, floor: float, block: int, level: float, rng) -> tuple[float, float]:
         """Block-bootstrap interval of the mean squared error above the noise floor's [unit^2]."""
-        ok = np.isfinite(e).all(axis=1)
-        return bootstrap_ci((e[ok] ** 2).mean(axis=1) - floor**2, block, self.settings.n_boot, level, rng)
+        excess = frame_mean_squares(e)
+        excess -= floor**2
+        return bootstrap_ci(excess, block, self.settings.n_boot, level, rng, overwrite_input=True)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tendon_id.diagnosis.moments import nan_sum_square
 from tendon_id.diagnosis.stats import bootstrap_ci
 
 
@@ -117,7 +118,7 @@ def gap_map(inputs, residual: NDArray, masks, *, block: int, n_boot: int, level:
         Bootstrap block length [frames].
     """
     # Whole-length temporaries are made one at a time: at an hour of 1 kHz each is 27 MiB a channel.
-    total = float(np.nansum(residual**2))
+    total = nan_sum_square(residual)
     valid = np.isfinite(residual)  # NaN in the model's warm-up
     n_all = int(valid.sum())
     rows = []
@@ -130,7 +131,7 @@ def gap_map(inputs, residual: NDArray, masks, *, block: int, n_boot: int, level:
         # Each frame's mean bias over its channels in the stratum: nanmean's sum and count, without its copies.
         per_frame = np.where(w, residual[frames], 0.0).sum(axis=1) / w.sum(axis=1, dtype=np.intp)
         del w, frames
-        ci = bootstrap_ci(per_frame, block, n_boot, level, rng)
+        ci = bootstrap_ci(per_frame, block, n_boot, level, rng, overwrite_input=True)
         del per_frame
         picked = residual[m]
         rows.append(

@@ -62,6 +62,10 @@ def test_gap_map_is_the_direct_construction_bit_for_bit(channels):
 def test_bootstrap_means_are_the_direct_construction_bit_for_bit():
     x = np.random.default_rng(3).standard_normal(1001)
     for block in (1, 7, 1001):
+        want = direct_bootstrap_means(x, block, 200, np.random.default_rng(block))
         got = block_bootstrap_means(x, block, 200, np.random.default_rng(block))
-        np.testing.assert_array_equal(got, direct_bootstrap_means(x, block, 200, np.random.default_rng(block)))
+        np.testing.assert_array_equal(got, want)
+        own = x.copy()  # the cumulative sums in the caller's array: the same bits, and x itself untouched above
+        np.testing.assert_array_equal(block_bootstrap_means(own, block, 200, np.random.default_rng(block), True), want)
+        np.testing.assert_array_equal(own, np.cumsum(x))
     assert np.isfinite(bootstrap_ci(x, 7, 200, 0.9, np.random.default_rng(0))).all()

@@ -136,3 +136,63 @@ def test_derived_arrays_in_slices_are_the_whole_computation(monkeypatch, slice_f
     for key, value in want.items():
         assert np.asarray(got[key]).dtype == np.asarray(value).dtype or key == "first_frame", key
         np.testing.assert_array_equal(got[key], value, err_msg=key)
+
+
+@pytest.mark.parametrize("slice_frames", [1, 37, 1 << 18])
+def test_strata_and_scales_in_slices_are_the_whole_computation(monkeypatch, slice_frames):
+    """The diagnosis's reversal stratum and the fit's data scales, sliced and without copies, are the former bits."""
+    from friction_models import play_operator
+    from tendon_id.family import inputs as family_inputs
+    from tendon_id.zoo.passage.diagnosis import REVERSAL_SHARE, passage_strata
+
+    monkeypatch.setattr(family_inputs, "SLICE_FRAMES", slice_frames)
+    inputs = PassageInputs.from_recordings([tendon_passage(s, n=300) for s in range(3)])
+    x = inputs.travel()
+    stuck = play_operator(x, REVERSAL_SHARE * float(np.ptp(x)), inputs.reset).sigma == 0
+    strata = {name: mask for name, _, mask in passage_strata(inputs)}
+    np.testing.assert_array_equal(strata["near reversals"], stuck)
+    speed = np.abs(inputs.speed(keep=False))
+    edges = np.quantile(speed, [0.25, 0.5])
+    assert any(name.startswith("input speed Q1") for name in strata)
+    np.testing.assert_array_equal(
+        next(m for n, m in strata.items() if n.startswith("input speed Q2")), (speed >= edges[0]) & (speed < edges[1])
+    )
+    assert "speed" not in inputs.cache  # read once, not kept
+    scales = data_scales(inputs)
+    assert scales["speed"] == float(np.quantile(speed, 0.95))
+    assert scales["signal"] == float(np.max(np.abs(inputs.output)))
+    assert scales["input"] == float(np.max(np.abs(inputs.input)))
+    inputs.speed()  # kept: the magnitude is then a copy, and the kept speed is left as it was
+    kept = inputs.speed().copy()
+    assert inputs.speed_magnitude() is not inputs.cache["speed"]
+    np.testing.assert_array_equal(inputs.speed(), kept)
+
+
+@pytest.mark.parametrize("base_blocks", [(), ("stick_slip",)], ids=["base", "stick_slip"])
+def test_signatures_in_windows_are_the_whole_readings_difference(monkeypatch, base_blocks):
+    """The diagnosis's signature columns, made window by window, are the whole readings' difference, bit for bit."""
+    from tendon_id.zoo.passage import model as passage_model
+    from tendon_id.zoo.passage.blocks import PASSAGE_BLOCKS
+    from tendon_id.zoo.passage.diagnosis import signatures
+
+    inputs = PassageInputs.from_recordings([tendon_passage(s, n=700) for s in range(3)])
+    fitted = PassageCapstan(blocks=base_blocks)
+    fitted.theta_ = theta_for(fitted, inputs)
+    names = ["velocity_friction", "clock_skew", "smooth_edge" if base_blocks else "stick_slip"]
+    blocks = {n: PASSAGE_BLOCKS[n]() for n in names}
+    scale = data_scales(inputs)
+    want = np.stack(
+        [
+            fitted.with_blocks(b).reading(
+                inputs, {**fitted.theta_, **{f"{n}:{p}": v for p, v in b.probe(scale).items()}}
+            )
+            - fitted.reading(inputs, fitted.theta_)
+            for n, b in blocks.items()
+        ],
+        axis=-1,
+    )[:, None]
+    monkeypatch.setattr(passage_model, "WINDOW_FRAMES", 37)  # windows inside trajectories
+    got = signatures(fitted, inputs, blocks)
+    assert got.labels == names
+    np.testing.assert_array_equal(got.columns, want)
+    assert np.abs(want).max() > 0  # the probes move the reading

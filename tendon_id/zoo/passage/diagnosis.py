@@ -25,10 +25,11 @@ from tendon_id.diagnosis.splits import Split
 from tendon_id.diagnosis.where import quartile_masks
 from tendon_id.errors import ConfigError
 from tendon_id.family.fit import Fit
+from tendon_id.family.inputs import by_slices
 from tendon_id.zoo.passage.fitting import calibrate_passage, calibration_record, data_scales
 from tendon_id.zoo.passage.inputs import PassageInputs
 
-__all__ = ["REVERSAL_SHARE", "UNITS", "file_splits", "passage_refit", "passage_strata", "signatures"]
+__all__ = ["REVERSAL_SHARE", "UNITS", "file_splits", "holding", "passage_refit", "passage_strata", "signatures"]
 
 #: Share of the travel's range the input must move back after a reversal to leave the
 #: "near reversals" stratum [-].
@@ -81,13 +82,13 @@ def passage_strata(inputs: PassageInputs):
     """
     x = inputs.travel()
     band = REVERSAL_SHARE * float(np.ptp(x))
-    stuck = play_operator(x, band, inputs.reset).sigma == 0 if band > 0 else np.zeros(x.shape, bool)
+    stuck = holding(x, band, inputs.reset) if band > 0 else np.zeros(x.shape, bool)
     yield "near reversals", "reversal", stuck
     yield "away from reversals", "reversal", ~stuck
     del stuck
     unit = UNITS[inputs.quantity]
     yield from ((n, "load", m) for n, m in quartile_masks(np.abs(inputs.output), "output load", unit))
-    speed = np.abs(inputs.speed())
+    speed = inputs.speed_magnitude()  # read here alone: not kept beside the strata
     rest = "input at rest" if speed.min() == 0 else None
     yield from ((n, "speed", m) for n, m in quartile_masks(speed, "input speed", "rad/s", least=rest))
     del speed
@@ -97,15 +98,41 @@ def passage_strata(inputs: PassageInputs):
     yield from ((n, "start", m) for n, m in quartile_masks(inputs.since_start, "time since log start", "s"))
 
 
+def holding(x: NDArray, band: float, reset: NDArray) -> NDArray[np.bool_]:
+    """Frames where a play operator of half-width ``band`` [x's unit] on ``x`` holds (slip state 0).
+
+    Slice by slice with the operator's output carried (:func:`~tendon_id.family.inputs.by_slices`):
+    the bits of the whole scan, without its three whole-length arrays.
+    """
+    last = None
+
+    def fill(a, b):
+        nonlocal last
+        played = play_operator(x[a:b], band, reset[a:b], y0=last)
+        last = played.log_out[-1]
+        return played.sigma == 0
+
+    return by_slices(len(x), np.bool_, fill)
+
+
 def signatures(fitted, inputs: PassageInputs, blocks: dict) -> Library:
-    """Each block's change of ``fitted``'s prediction when added at its probe values, shape (T, 1, C)."""
+    """Each block's change of ``fitted``'s prediction when added at its probe values, shape (T, 1, C).
+
+    Window by window (:meth:`~tendon_id.zoo.passage.model.PassageCapstan.reading_windows`, the
+    whole reading's bits): the base's reading is made again per column, a window at a time, rather
+    than kept whole beside the columns.
+    """
     scale = data_scales(inputs)
     theta = fitted.theta_
-    base = fitted.reading(inputs, theta)
     labels = list(blocks)
     columns = np.empty((inputs.n_frames, 1, len(labels)))  # filled column by column: no list to stack
     for k, (e, block) in enumerate(blocks.items()):
         probe = {f"{e}:{p}": v for p, v in block.probe(scale).items()}
-        columns[:, 0, k] = fitted.with_blocks(block).reading(inputs, {**theta, **probe})
-        columns[:, 0, k] -= base
+        model, at = fitted.with_blocks(block), {**theta, **probe}
+        if not (model.streams and fitted.streams):  # one of them reads later frames: whole readings
+            columns[:, 0, k] = model.reading(inputs, at)
+            columns[:, 0, k] -= fitted.reading(inputs, theta)
+            continue
+        for (a, b, y), (_, _, y0) in zip(model.reading_windows(inputs, at), fitted.reading_windows(inputs, theta)):
+            np.subtract(y, y0, out=columns[a:b, 0, k])
     return Library(labels, list(labels), columns)

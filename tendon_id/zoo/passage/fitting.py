@@ -68,13 +68,19 @@ def data_scales(inputs) -> dict[str, float]:
     travel = inputs.travel()
     angle = inputs.position_out if inputs.position_out is not None else travel
     return {
-        "signal": float(np.max(np.abs(inputs.output))) or 1.0,
-        "input": float(np.max(np.abs(inputs.input))) or 1.0,
+        "signal": _max_abs(inputs.output) or 1.0,
+        "input": _max_abs(inputs.input) or 1.0,
         "travel": float(np.ptp(travel)) or 1.0,
-        "angle": float(np.max(np.abs(angle))) or 1.0,
-        "speed": float(np.quantile(np.abs(inputs.speed(keep=False)), 0.95)) or 1.0,
+        "angle": _max_abs(angle) or 1.0,
+        "speed": float(np.quantile(inputs.speed_magnitude(), 0.95, overwrite_input=True)) or 1.0,
         "dt": float(inputs.dt),
     }
+
+
+def _max_abs(x: NDArray) -> float:
+    """``max(|x|)`` without the copy ``np.abs`` makes: the same value (NaN if any is)."""
+    hi, lo = float(np.max(x)), float(np.min(x))
+    return float("nan") if np.isnan(hi) or np.isnan(lo) else max(hi, -lo)
 
 
 def parameter_box(model, inputs) -> tuple[list[str], NDArray, NDArray]:

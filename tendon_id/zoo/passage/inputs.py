@@ -193,3 +193,8 @@ class PassageInputs(FrameInputs):
             return by_slices(self.n_frames, float, fill)
 
         return self.memo("speed", compute) if keep or "speed" in self.cache else compute()
+
+    def speed_magnitude(self) -> NDArray:
+        """``|speed()|`` [rad/s], an array of the caller's own (to partition in place), not kept."""
+        speed = self.speed(keep=False)
+        return np.abs(speed) if "speed" in self.cache else np.abs(speed, out=speed)

@@ -288,6 +288,7 @@ class PassageCapstan(PassageModel):
         """Fit the law and the blocks' parameters (:mod:`~tendon_id.zoo.passage.fitting`); returns ``self``."""
         self.check_settings()
         inputs = data if isinstance(data, PassageInputs) else PassageInputs.from_recordings(data)
+        data = None  # recordings handed over (the CLI's) are freed for the calibration: it reads the signals
         for b in self.block_objects:
             b.check(inputs)
         fit = calibrate_passage(self, inputs)
