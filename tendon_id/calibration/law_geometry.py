@@ -155,7 +155,12 @@ def profile_geometry(problem: LawProblem) -> tuple[dict, int]:
         return vals
 
     exact = TiedLeastSquares(LawLayout(model.mu_law, 1))
-    tied = LawProblem.from_model(smooth, problem.inputs, "tied", problem.noise_n, values=problem.values)
+    # The problem's labels with the tied law: only the design moves with the geometry (made in loss), so
+    # the template takes the problem's arrays, not a design of its own (a third of a snake's recording).
+    tied = LawProblem(
+        problem.guide_design, problem.log_drop, problem.weight, "tied", problem.inputs, smooth.mu_law,
+        problem.noise_n, problem.keep, smooth, problem.values,
+    )  # fmt: skip
     keep, log_drop = problem.keep, tied.log_drop[problem.keep]  # the smooth part has no warm-up of its own
 
     def loss(x) -> float:

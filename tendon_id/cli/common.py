@@ -111,6 +111,17 @@ def read_all(paths: list[Path] | None, mapping: str | None = None, param: str = 
 MIN_FIT_FRAMES = 2
 
 
+def handed_over(items: list) -> list:
+    """The items in a new list, ``items`` emptied: the callee then holds the only references.
+
+    A model that lets its recordings go once it has read their arrays (issue 42's scale: an hour
+    of a snake's log is 1.7 GiB) frees them only if the command does not keep them too.
+    """
+    out = list(items)
+    items.clear()
+    return out
+
+
 def check_fit_data(recs: list, paths: list[Path]) -> None:
     """Warn, on standard error, of a fit on fewer than :data:`MIN_FIT_FRAMES` frames, naming the files.
 

@@ -17,6 +17,7 @@ from tendon_id.cli.common import (
     JsonOutput,
     check_fit_data,
     echo_guard,
+    handed_over,
     json_option,
     mapping_option,
     parse_sets,
@@ -57,13 +58,13 @@ def fit(
         # Only a model trained with torch (one with a device) can stop on a NaN loss; the warning's
         # module imports torch, a quarter GB a physics model's fit need not pay.
         trains = training_warnings() if "device" in m.get_params() else nullcontext()
+        frames = sum(r.n_frames for r in recs)
         with stage(f"fit {model}"), quiet_guard(), trains:  # the guard is printed below, plainly
-            m.fit(recs)
+            m.fit(handed_over(recs))  # the model's own: a physics model lets them go once it has their arrays
         seconds = time.perf_counter() - t0
         m.check_finite_fit(", ".join(map(str, data)))  # a diverged fit is an error naming its data
         with stage("writing the model"), hold_interrupt():  # model.json and arrays.npz: both or neither new
             m.save(out)
-        frames = sum(r.n_frames for r in recs)
         typer.echo(f"fitted {model} on {frames} frames; saved to {out}")
         echo_guard(m)
         summary = {"model": model, "frames": frames, "out": str(out), "seconds": seconds}

@@ -138,6 +138,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         self._validated()
         recs = [r.fitting_view() for r in as_recordings(data)]
         inputs = TransmissionInputs.from_recordings(recs, self.robot)
+        data = recs = None  # recordings handed over (the CLI's) are freed for the calibration: it reads the arrays
         result = calibrate_capstan(self.started_from(inputs.geometry), inputs)
         self.A_, self.B_ = result.A, result.B
         self.block_values_ = result.block_values
