@@ -32,6 +32,7 @@ weights :func:`delta_method_weight` come from the measured tensions.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -124,8 +125,9 @@ class LawProblem:
 
     Attributes
     ----------
-    guide_design : ndarray, shape (T, K, 2)
-        ``[m alpha cos alpha, m alpha]`` per frame and guide (K = N - 1) [rad].
+    guide_design : ndarray, shape (T, K, 2), or None
+        ``[m alpha cos alpha, m alpha]`` per frame and guide (K = N - 1) [rad]; None in a problem
+        let go of it (:meth:`without_design`).
     log_drop : ndarray, shape (T, n)
         ``ln T[1, N, i] - ln T[N, N, i]`` from the measured tensions [-].
     weight : ndarray, shape (T, n)
@@ -145,7 +147,7 @@ class LawProblem:
         Block parameters ``{block: {param: value}}`` the forward model runs with.
     """
 
-    guide_design: NDArray[np.float64]
+    guide_design: NDArray[np.float64] | None
     log_drop: NDArray[np.float64]
     weight: NDArray[np.float64]
     tying: str
@@ -199,7 +201,15 @@ class LawProblem:
     # ---- parameters --------------------------------------------------------------------
     @property
     def n_guides(self) -> int:
-        return self.guide_design.shape[1]
+        return self.guide_design.shape[1] if self.guide_design is not None else self.inputs.n_modules - 1
+
+    def without_design(self) -> LawProblem:
+        """This problem with its per-guide design let go (``guide_design`` None), for a fit of the forward model.
+
+        The design is a third of a snake's recording (issue 42's scale); a nonsmooth joint fit never
+        reads it, while the base fits it starts from build designs of their own.
+        """
+        return dataclasses.replace(self, guide_design=None)
 
     @property
     def n_tendons(self) -> int:

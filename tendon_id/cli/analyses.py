@@ -10,7 +10,15 @@ import typer
 
 from tendon_id.atomic import check_writable, hold_interrupt
 from tendon_id.cli.app import app
-from tendon_id.cli.common import JsonOutput, check_held_out, json_option, mapping_option, read_all, training_warnings
+from tendon_id.cli.common import (
+    JsonOutput,
+    check_held_out,
+    handed_over,
+    json_option,
+    mapping_option,
+    read_all,
+    training_warnings,
+)
 from tendon_id.errors import ConfigError
 from tendon_id.progress import stage
 
@@ -65,7 +73,7 @@ def identifiability(
         check_learned_inputs(recs)
     with js.lines():
         with stage("identifiability"), training_warnings() if learned else nullcontext():
-            result = analyse(recs, settings, learned=learned, learned_seeds=seeds)
+            result = analyse(handed_over(recs), settings, learned=learned, learned_seeds=seeds)
         wrote = report_written(write_report, result, out, js)
         d = result.to_dict()
         typer.echo(

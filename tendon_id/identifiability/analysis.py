@@ -10,6 +10,7 @@ only to score the bands and the advice, never to fit.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -206,12 +207,20 @@ def analyse(
 
     base = _base_model(settings.model, views)
     inputs = TransmissionInputs.from_recordings(views, base.geometry_)
+    source, protocol, name, law = recs[0].source, recs[0].protocol, data_name(recs), truth_law(recs)
+    if not (settings.emcee or learned):
+        data = recs = views = None  # recordings handed over (the CLI's) are freed: the studies read the arrays
     studies: dict[str, TyingStudy] = {}
+    problem = None
     for tying in TYINGS:
         next(it, None)
-        studies[tying] = study_tying(
-            IdentifiabilityProblem.from_model(base, inputs, tying, noise), settings, settings.seed
+        # One design for both tyings: its arrays are the data's and the structure's, not the tying's.
+        problem = (
+            IdentifiabilityProblem.from_model(base, inputs, tying, noise)
+            if problem is None
+            else dataclasses.replace(problem, tying=tying)
         )
+        studies[tying] = study_tying(problem, settings, settings.seed)
     next(it, None)
     frames = band_frames(inputs.n_frames, settings.band_frames, settings.seed)
     for st in studies.values():
@@ -246,9 +255,9 @@ def analyse(
         pass
     return IdentifiabilityResult(
         settings=settings,
-        source=None if recs[0].source is None else str(recs[0].source),
+        source=None if source is None else str(source),
         model_name=base.name,
-        protocol=recs[0].protocol,
+        protocol=protocol,
         n_frames=inputs.n_frames,
         n_modules=inputs.n_modules,
         noise_n=noise,
@@ -263,8 +272,8 @@ def analyse(
         learned=learned_summary,
         seconds=time.perf_counter() - t0,
         truth=truth,
-        name=data_name(recs),
-        truth_law=truth_law(recs),
+        name=name,
+        truth_law=law,
         advice_baseline=baseline,
     )
 

@@ -163,3 +163,19 @@ def test_dataclass_replace_keeps_a_block_a_block():
     assert gate.initial() == {"alpha_c": 0.1} and gate.settings() == {"gate": "dead_zone"}
     with pytest.raises(Exception, match="gate"):
         zoo.ContactGate(gate="soft")
+
+
+@pytest.mark.parametrize("phi_shape", [(50, 11, 1, 1), (50, 11, 1, 3), (1,)], ids=["same", "wider", "scalar-like"])
+def test_the_dead_zone_gate_is_computed_in_place_with_the_former_bits(phi_shape):
+    """The gate's share made in its own array (issue 42) is divide(dead zone, alpha, where alpha > 0) times phi."""
+    from tendon_id.zoo.blocks.base import HookContext
+
+    rng = np.random.default_rng(4)
+    alpha = rng.uniform(0.0, 0.4, (50, 11, 1, 1))
+    alpha[::7] = 0.0  # no wrap: no share, not 0/0
+    phi = rng.uniform(0.5, 2.0, phi_shape)
+    ctx = HookContext(None, np.array([11]), np.arange(3), alpha=alpha)
+    got = zoo.ContactGate(gate="dead_zone").exponent(phi.copy(), ctx, {"alpha_c": 0.08})
+    want = phi * np.divide(dead_zone_wrap(alpha, 0.08), alpha, out=np.zeros(alpha.shape), where=alpha > 0)
+    assert got.shape == want.shape
+    np.testing.assert_array_equal(got, want)

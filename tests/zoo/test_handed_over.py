@@ -85,3 +85,29 @@ def test_a_fit_frees_recordings_handed_over(monkeypatch, make, model, calibrate)
         if hasattr(handed, key):
             got, want = getattr(handed, key), getattr(same, key)
             assert np.array_equal(got, want) if isinstance(got, np.ndarray) else got == want, key
+
+
+def test_the_joint_fit_lets_go_of_the_problems_design(monkeypatch):
+    """A nonsmooth fit with free block parameters reads the forward model: the design built for its smooth
+    start (a third of a snake's recording) is freed before the joint fit, which gives the same law."""
+    from tendon_id.calibration import law
+
+    designs, alive = [], []
+    real_fits, real_joint = law.law_fits, law._fit_joint
+
+    def fits_watched(problem):
+        if problem.guide_design is not None:
+            designs.append(weakref.ref(problem.guide_design))
+        return real_fits(problem)
+
+    def joint_watched(problem, rng):
+        gc.collect()
+        alive.append((problem.guide_design is None, designs[0]() is None, problem.n_guides))
+        return real_joint(problem, rng)
+
+    monkeypatch.setattr(law, "law_fits", fits_watched)
+    monkeypatch.setattr(law, "_fit_joint", joint_watched)
+    (rec,) = snake_recordings()[:1]
+    model = zoo.make("capstan-nonsmooth", n_starts=1, maxeval=30).fit(rec)
+    assert alive == [(True, True, rec.n_modules - 1)]
+    assert np.all(np.isfinite(model.A_)) and np.all(model.B_ >= np.abs(model.A_))
