@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from tendon_id.calibration.posterior import sample_posterior
 from tendon_id.data import Recording
+from tendon_id.data.io import release_arrow_memory
 from tendon_id.errors import ConfigError
 from tendon_id.identifiability.advice import excite_joints, instrument_scores, judge_advice, measure_advice
 from tendon_id.identifiability.band import ambiguity_band, band_frames
@@ -210,6 +211,7 @@ def analyse(
     source, protocol, name, law = recs[0].source, recs[0].protocol, data_name(recs), truth_law(recs)
     if not (settings.emcee or learned):
         data = recs = views = None  # recordings handed over (the CLI's) are freed: the studies read the arrays
+        release_arrow_memory()  # their text lived in Arrow's allocator, which keeps what is freed until asked
     studies: dict[str, TyingStudy] = {}
     problem = None
     for tying in TYINGS:

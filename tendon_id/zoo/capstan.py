@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from tendon_id.calibration.law import calibrate_capstan
 from tendon_id.data import Recording
+from tendon_id.data.io import release_arrow_memory
 from tendon_id.errors import ConfigError
 from tendon_id.geometry import RobotGeometry
 from tendon_id.zoo.base import TransmissionModel
@@ -139,6 +140,7 @@ class CapstanModel(CapstanStructure, TransmissionModel):
         recs = [r.fitting_view() for r in as_recordings(data)]
         inputs = TransmissionInputs.from_recordings(recs, self.robot)
         data = recs = None  # recordings handed over (the CLI's) are freed for the calibration: it reads the arrays
+        release_arrow_memory()  # their text lived in Arrow's allocator, which keeps what is freed until asked
         result = calibrate_capstan(self.started_from(inputs.geometry), inputs)
         self.A_, self.B_ = result.A, result.B
         self.block_values_ = result.block_values
