@@ -8,7 +8,7 @@ slices of :data:`~tendon_id.family.inputs.SLICE_FRAMES` frames, so a temporary i
 Means and variances are two-pass (the mean first, then the sum of squared deviations from
 it), which keeps the variance as accurate as numpy's (Chan, Golub & LeVeque 1983, "Algorithms
 for computing the sample variance", The American Statistician 37(3)); the sums differ from
-numpy's pairwise ones only in rounding (tests check agreement to 1e-12).
+numpy's pairwise ones only in rounding (``tests/diagnosis/test_moments.py`` checks them against numpy).
 """
 
 from __future__ import annotations
