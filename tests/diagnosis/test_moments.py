@@ -25,7 +25,7 @@ def short_slices(monkeypatch):
     monkeypatch.setattr(family_inputs, "SLICE_FRAMES", 7)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(x=st.one_of(series(1), series(3)), slice_frames=st.integers(1, 70))
 def test_moments_are_numpys_at_any_slice_length(x, slice_frames):
     with pytest.MonkeyPatch.context() as mp:
@@ -45,7 +45,7 @@ def test_moments_are_numpys_at_any_slice_length(x, slice_frames):
             assert np.isnan(moments.nan_std_of_differences(x))
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(
     xy=st.integers(1, 60).flatmap(
         lambda n: st.tuples(
