@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from tendon_id.checks import check_choices
 from tendon_id.diagnosis.moments import nan_pearson
 from tendon_id.errors import ConfigError
-from tendon_id.family.inputs import SLICE_FRAMES
+from tendon_id.family.inputs import frame_slices
 
 #: STLSQ threshold on standardised coefficients: a column must move the standardised
 #: residual by 5 % of its spread per standard deviation to stay in the model.
@@ -140,7 +140,7 @@ def _moments(X: NDArray, y: NDArray):
     centred sums, as ``np.std`` centres before it squares).
     """
     c = X.shape[1]
-    slices = [slice(a, a + SLICE_FRAMES) for a in range(0, len(y), SLICE_FRAMES)]
+    slices = list(frame_slices(len(y)))
     n, sx, sy = 0, np.zeros(c), 0.0
     for s in slices:
         ok = np.isfinite(y[s]) & np.all(np.isfinite(X[s]), axis=1)

@@ -13,21 +13,19 @@ numpy's pairwise ones only in rounding (``tests/diagnosis/test_moments.py`` chec
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.family import inputs
+from tendon_id.errors import NonFiniteResult
+from tendon_id.family.inputs import frame_slices
 
-__all__ = ["frame_slices", "nan_mean_square", "nan_pearson", "nan_std_of_differences", "nan_sum_square"]
+#: Why a statistic of a residual with no finite value is refused rather than NaN.
+NO_FINITE = (
+    "the held-out residual has no finite value (a warm-up as long as the held-out data, or a model "
+    "that diverged on it): its error is undefined"
+)
 
-
-def frame_slices(n: int) -> Iterator[slice]:
-    """Consecutive slices of ``n`` frames, :data:`~tendon_id.family.inputs.SLICE_FRAMES` long (the last shorter)."""
-    step = max(int(inputs.SLICE_FRAMES), 1)  # read when called: a test may shorten it
-    for a in range(0, n, step):
-        yield slice(a, min(a + step, n))
+__all__ = ["nan_mean_square", "nan_pearson", "nan_std_of_differences", "nan_sum_square"]
 
 
 def _sum_square(x: NDArray) -> tuple[float, int]:
@@ -48,34 +46,46 @@ def nan_sum_square(x: NDArray) -> float:
 
 
 def nan_mean_square(x: NDArray) -> float:
-    """``nanmean(x**2)`` over every entry of ``x``: NaN where no entry is finite."""
+    """``nanmean(x**2)`` over every entry of ``x``.
+
+    Raises
+    ------
+    NonFiniteResult
+        Where no entry is finite: the mean is undefined, never a NaN result.
+    """
     total, count = _sum_square(x)
-    return total / count if count else float("nan")
-
-
-def _mean_and_spread(parts) -> tuple[float, float, int]:
-    """Mean, sum of squared deviations and count of the finite values of a re-iterable of arrays."""
-    total, count = 0.0, 0
-    for part in parts():
-        ok = np.isfinite(part)
-        total += float(np.sum(part, where=ok))
-        count += int(ok.sum())
-    if count == 0:
-        return float("nan"), float("nan"), 0
-    mean = total / count
-    spread = 0.0
-    for part in parts():
-        d = np.subtract(part, mean, where=np.isfinite(part), out=np.zeros(part.shape))
-        spread += float(np.dot(d.ravel(), d.ravel()))
-    return mean, spread, count
+    if not count:
+        raise NonFiniteResult(NO_FINITE)
+    return total / count
 
 
 def nan_std_of_differences(x: NDArray) -> float:
-    """``nanstd(diff(x, axis=0))`` (ddof 0), each slice's differences made from it and its last frame before."""
+    """``nanstd(diff(x, axis=0))`` (ddof 0), each slice's differences made from it and its last frame before.
+
+    Two passes: the differences' mean, then their squared deviations from it.
+
+    Raises
+    ------
+    NonFiniteResult
+        Where no difference is finite.
+    """
     x = np.asarray(x, dtype=float)
-    n = len(x) - 1
-    _, spread, count = _mean_and_spread(lambda: (x[s.start + 1 : s.stop + 1] - x[s] for s in frame_slices(n)))
-    return float(np.sqrt(spread / count)) if count else float("nan")
+
+    def differences():
+        return (x[s.start + 1 : s.stop + 1] - x[s] for s in frame_slices(len(x) - 1))
+
+    total, count = 0.0, 0
+    for d in differences():
+        ok = np.isfinite(d)
+        total += float(np.sum(d, where=ok))
+        count += int(ok.sum())
+    if not count:
+        raise NonFiniteResult(NO_FINITE)
+    mean, spread = total / count, 0.0
+    for d in differences():
+        d = np.subtract(d, mean, where=np.isfinite(d), out=np.zeros(d.shape))
+        spread += float(np.dot(d.ravel(), d.ravel()))
+    return float(np.sqrt(spread / count))
 
 
 def nan_pearson(x: NDArray, y: NDArray) -> float:

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tendon_id.diagnosis.moments import frame_slices, nan_std_of_differences
+from tendon_id.diagnosis.moments import nan_std_of_differences
+from tendon_id.family.inputs import frame_slices
 
 
 def block_bootstrap_means(

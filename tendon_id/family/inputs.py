@@ -11,13 +11,23 @@ how the diagnosis makes its splits.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["SLICE_FRAMES", "FrameInputs", "Stacked", "WindowCache", "adjacent_view", "by_slices", "forget", "stacked"]
+__all__ = [
+    "SLICE_FRAMES",
+    "FrameInputs",
+    "Stacked",
+    "WindowCache",
+    "adjacent_view",
+    "by_slices",
+    "forget",
+    "frame_slices",
+    "stacked",
+]
 
 #: Frames of one slice where a derived array is computed piecewise (:func:`by_slices`): its
 #: temporaries stay a few MiB however long the log (an hour at 1 kHz is 3.6e6 frames).
@@ -32,10 +42,16 @@ def by_slices(n_frames: int, dtype, fill) -> NDArray:
     temporaries never built.
     """
     out = np.empty(n_frames, dtype=dtype)
-    for a in range(0, n_frames, SLICE_FRAMES):
-        b = min(a + SLICE_FRAMES, n_frames)
-        out[a:b] = fill(a, b)
+    for s in frame_slices(n_frames):
+        out[s] = fill(s.start, s.stop)
     return out
+
+
+def frame_slices(n_frames: int) -> Iterator[slice]:
+    """Consecutive slices of ``n_frames`` frames, :data:`SLICE_FRAMES` long (the last shorter)."""
+    step = max(int(SLICE_FRAMES), 1)  # read when called: a test may shorten it
+    for a in range(0, n_frames, step):
+        yield slice(a, min(a + step, n_frames))
 
 
 class WindowCache(dict):

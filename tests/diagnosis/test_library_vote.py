@@ -33,9 +33,9 @@ def vote_on_every_frame(lib: Library, residual):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_the_vote_on_the_square_root_form_is_the_vote_on_every_frame(seed, monkeypatch):
-    from tendon_id.diagnosis import library
+    from tendon_id.family import inputs as family_inputs
 
-    monkeypatch.setattr(library, "SLICE_FRAMES", 777)  # several slices, one of them short
+    monkeypatch.setattr(family_inputs, "SLICE_FRAMES", 777)  # several slices, one of them short
     rng = np.random.default_rng(seed)
     T, K = 5000, 3
     cols = rng.normal(size=(T, K, 5))

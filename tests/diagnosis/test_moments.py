@@ -10,6 +10,7 @@ from hypothesis.extra.numpy import arrays
 
 from tendon_id.diagnosis import moments
 from tendon_id.diagnosis.stats import frame_drops, frame_mean_squares
+from tendon_id.errors import NonFiniteResult
 from tendon_id.family import inputs as family_inputs
 
 finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
@@ -35,14 +36,16 @@ def test_moments_are_numpys_at_any_slice_length(x, slice_frames):
         assert moments.nan_sum_square(x) == pytest.approx(want_sum, rel=1e-12, abs=1e-9)
         if ok.any():
             assert moments.nan_mean_square(x) == pytest.approx(want_sum / ok.sum(), rel=1e-12, abs=1e-12)
-        else:
-            assert np.isnan(moments.nan_mean_square(x))
+        else:  # undefined: refused, never a NaN result
+            with pytest.raises(NonFiniteResult, match="no finite value"):
+                moments.nan_mean_square(x)
         d = np.diff(x, axis=0)
         if np.isfinite(d).any():
             want = float(np.std(d[np.isfinite(d)]))
             assert moments.nan_std_of_differences(x) == pytest.approx(want, rel=1e-9, abs=1e-9)
         else:
-            assert np.isnan(moments.nan_std_of_differences(x))
+            with pytest.raises(NonFiniteResult, match="no finite value"):
+                moments.nan_std_of_differences(x)
 
 
 @settings(max_examples=100, deadline=None)

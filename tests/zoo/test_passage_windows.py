@@ -109,11 +109,8 @@ def whole_derivations(inputs: PassageInputs, band: float) -> dict:
 def test_derived_arrays_in_slices_are_the_whole_computation(monkeypatch, slice_frames):
     from tendon_id.family import inputs as family_inputs
     from tendon_id.zoo.passage import blocks as passage_blocks
-    from tendon_id.zoo.passage import inputs as passage_inputs
 
-    monkeypatch.setattr(family_inputs, "SLICE_FRAMES", slice_frames)
-    monkeypatch.setattr(passage_inputs, "SLICE_FRAMES", slice_frames)
-    monkeypatch.setattr(passage_blocks, "SLICE_FRAMES", slice_frames)
+    monkeypatch.setattr(family_inputs, "SLICE_FRAMES", slice_frames)  # every slice loop reads it (frame_slices)
     recs = [tendon_passage(s, n=300) for s in range(3)]
     still = recs[0].frame.assign(trajectory="still", input=1.0, position=0.0)  # never moves: first motion +1
     recs.append(PassageRecording(still, recs[0].meta))

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 from friction_models.play_operator import play_output
 from tendon_id.errors import ConfigError
 from tendon_id.family.blocks import BlockRegistry, EffectBlock
-from tendon_id.family.inputs import SLICE_FRAMES
+from tendon_id.family.inputs import frame_slices
 
 #: Where a block acts, in the order of the forward computation (the module docstring's table).
 PASSAGE_STAGES = ("input", "load", "state", "edge", "sensor")
@@ -349,8 +349,8 @@ def scale_band(inputs) -> float:
         # place: one whole-length array, not the four of abs(diff(x))[mask] and median's copy.
         x = inputs.travel()
         steps, n = np.empty(max(x.size - 1, 0)), 0
-        for a in range(0, x.size - 1, SLICE_FRAMES):
-            part = np.abs(np.diff(x[a : min(a + SLICE_FRAMES, x.size - 1) + 1]))
+        for s in frame_slices(x.size - 1):
+            part = np.abs(np.diff(x[s.start : s.stop + 1]))
             part = part[part > 0]
             steps[n : n + part.size] = part
             n += part.size

@@ -13,7 +13,7 @@ from friction_models import play_operator
 from tendon_id.data.frame import FrameRecording
 from tendon_id.data.passage import PassageRecording
 from tendon_id.errors import ConfigError
-from tendon_id.family.inputs import SLICE_FRAMES, FrameInputs, by_slices
+from tendon_id.family.inputs import FrameInputs, by_slices, frame_slices
 
 #: Window of the backward difference that gives the input speed [s] (an encoder count per
 #: frame is too coarse at 1 kHz; 20 ms averages it while lagging the motion by 10 ms).
@@ -156,8 +156,8 @@ class PassageInputs(FrameInputs):
             # The first moving frame at or after each start, found slice by slice (the moving
             # frames of a whole log would be an index per frame).
             found = np.full(starts.size, -1, dtype=np.int64)
-            for a in range(0, n, SLICE_FRAMES):
-                b = min(a + SLICE_FRAMES, n)
+            for s in frame_slices(n):
+                a, b = s.start, s.stop
                 moving = a + np.flatnonzero(sigma[a:b])
                 todo = np.flatnonzero((found < 0) & (starts < b))
                 at = np.searchsorted(moving, starts[todo])
